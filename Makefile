@@ -1,0 +1,49 @@
+# rangeproc: two commands on a fresh machine -> `make demo` and `make test`.
+PY ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+SEEDS ?= 2 3 4
+
+.PHONY: install demo test bench bench-quick reproduce sample-data lint clean
+
+$(STAMP): pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+	rm -f $(VENV)/.installed-*
+	touch $(STAMP)
+
+install: $(STAMP)
+
+## demo: install and run the main job on the bundled sample data, then score it against truth.
+demo: $(STAMP)
+	$(BIN)/rangeproc run configs/sample.toml
+	$(BIN)/rangeproc evaluate out/sample sample_data/truth.csv
+
+## test: the test suite.
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+## bench: time the pipeline and filter kernels against FilterPy / Stone Soup.
+bench: $(STAMP)
+	$(BIN)/python bench/bench.py
+
+bench-quick: $(STAMP)
+	$(BIN)/python bench/bench.py --quick
+
+## reproduce: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite).
+reproduce: $(STAMP)
+	$(BIN)/python bench/reproduce.py --seeds $(SEEDS)
+
+## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
+sample-data: $(STAMP)
+	rm -rf sample_data && $(BIN)/rangeproc simulate sample_data --seed 1 --duration 120
+	$(BIN)/python bench/make_sample_config.py sample_data/scenario.toml configs/sample.toml
+
+lint: $(STAMP)
+	$(BIN)/python -m pip install --quiet ruff
+	$(BIN)/ruff check rangeproc tests
+
+clean:
+	rm -rf out bench/results.json .pytest_cache

@@ -1,0 +1,87 @@
+"""Small dense linear algebra for the compiled recursions (numba, no Python objects).
+
+Covariances are stored packed (lower triangle, row-major: P[0,0], P[1,0], P[1,1], P[2,0], ...)
+so that a stored history of ``E`` epochs needs ``E * n (n + 1) / 2`` doubles.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+def packed_size(n: int) -> int:
+    """Number of doubles of a packed symmetric (n, n) matrix."""
+    return n * (n + 1) // 2
+
+
+@njit(cache=True)
+def pack(P: np.ndarray, out: np.ndarray) -> None:
+    """Store the lower triangle of symmetric ``P`` (n, n) into ``out`` (n(n+1)/2,)."""
+    n = P.shape[0]
+    k = 0
+    for i in range(n):
+        for j in range(i + 1):
+            out[k] = 0.5 * (P[i, j] + P[j, i])
+            k += 1
+
+
+@njit(cache=True)
+def unpack(p: np.ndarray, out: np.ndarray) -> None:
+    """Inverse of :func:`pack`: fill the full symmetric ``out`` (n, n)."""
+    n = out.shape[0]
+    k = 0
+    for i in range(n):
+        for j in range(i + 1):
+            out[i, j] = p[k]
+            out[j, i] = p[k]
+            k += 1
+
+
+@njit(cache=True)
+def cholesky_inplace(S: np.ndarray, m: int) -> bool:
+    """Lower Cholesky factor of the leading (m, m) block of ``S``, in place. False if not PD."""
+    for j in range(m):
+        d = S[j, j]
+        for k in range(j):
+            d -= S[j, k] * S[j, k]
+        if not d > 0.0:
+            return False
+        d = math.sqrt(d)
+        S[j, j] = d
+        for i in range(j + 1, m):
+            v = S[i, j]
+            for k in range(j):
+                v -= S[i, k] * S[j, k]
+            S[i, j] = v / d
+        for i in range(j):
+            S[i, j] = 0.0
+    return True
+
+
+@njit(cache=True)
+def chol_solve_inplace(L: np.ndarray, m: int, B: np.ndarray, ncols: int) -> None:
+    """Solve ``(L L^T) X = B`` for the leading (m, ncols) block of ``B``, in place."""
+    for c in range(ncols):
+        for i in range(m):                       # forward: L y = b
+            v = B[i, c]
+            for k in range(i):
+                v -= L[i, k] * B[k, c]
+            B[i, c] = v / L[i, i]
+        for i in range(m - 1, -1, -1):           # backward: L^T x = y
+            v = B[i, c]
+            for k in range(i + 1, m):
+                v -= L[k, i] * B[k, c]
+            B[i, c] = v / L[i, i]
+
+
+@njit(cache=True)
+def symmetrize(P: np.ndarray) -> None:
+    """Replace ``P`` by ``(P + P^T) / 2`` in place."""
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(i):
+            v = 0.5 * (P[i, j] + P[j, i])
+            P[i, j] = v
+            P[j, i] = v

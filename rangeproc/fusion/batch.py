@@ -1,0 +1,93 @@
+"""The measurement batch: every usable row of every sensor for one target, as flat arrays."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rangeproc.models.measurement import N_COMPONENTS
+
+
+@dataclass(frozen=True, slots=True)
+class MeasurementBatch:
+    """Rows of all sensors of one target, sorted by time (stable: sensor order at equal times).
+
+    t: (N,) s; model: (N,) int64 measurement model code (``rangeproc.models.measurement``);
+    z: (N, 6) measured components (SI, NaN = not measured); sigma: (N, 6) a-priori 1-sigma;
+    s, sv: (N, 3) sensor position (m) and velocity (m/s) in range ENU; Qr: (N, 3, 3) rotation
+    range ENU -> sensor-local axes; sensor: (N,) int64 index into ``sensor_ids``;
+    source_row: (N,) int64 index of the row in that sensor's SensorLog; station: (N,) int64
+    MISTRAM station index or -1; track: (N,) int64 sensor-local track id or -1.
+    """
+
+    t: np.ndarray
+    model: np.ndarray
+    z: np.ndarray
+    sigma: np.ndarray
+    s: np.ndarray
+    sv: np.ndarray
+    Qr: np.ndarray
+    sensor: np.ndarray
+    source_row: np.ndarray
+    station: np.ndarray
+    track: np.ndarray
+    sensor_ids: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def with_sigma(self, sigma: np.ndarray) -> "MeasurementBatch":
+        """A copy sharing every array but ``sigma`` (N, 6)."""
+        return MeasurementBatch(self.t, self.model, self.z, sigma, self.s, self.sv, self.Qr,
+                                self.sensor, self.source_row, self.station, self.track,
+                                self.sensor_ids)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorRows:
+    """One sensor's contribution before merging (same fields as the batch, unsorted)."""
+
+    t: np.ndarray
+    model: np.ndarray
+    z: np.ndarray
+    sigma: np.ndarray
+    s: np.ndarray
+    sv: np.ndarray
+    Qr: np.ndarray
+    source_row: np.ndarray
+    station: np.ndarray
+    track: np.ndarray
+
+
+def empty_rows(n: int, model: int) -> dict[str, np.ndarray]:
+    """Allocate the arrays of ``n`` rows of one model, NaN measurements and unit sigmas."""
+    return {
+        "model": np.full(n, model, dtype=np.int64),
+        "z": np.full((n, N_COMPONENTS), np.nan),
+        "sigma": np.ones((n, N_COMPONENTS)),
+        "s": np.zeros((n, 3)),
+        "sv": np.zeros((n, 3)),
+        "Qr": np.tile(np.eye(3), (n, 1, 1)),
+    }
+
+
+def merge(parts: list[tuple[int, SensorRows]], sensor_ids: tuple[str, ...]) -> MeasurementBatch:
+    """Concatenate per-sensor rows (tagged with their sensor index) and sort stably by time."""
+    if not parts:
+        z = np.empty((0, N_COMPONENTS))
+        return MeasurementBatch(np.empty(0), np.empty(0, np.int64), z, z.copy(),
+                                np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3, 3)),
+                                np.empty(0, np.int64), np.empty(0, np.int64),
+                                np.empty(0, np.int64), np.empty(0, np.int64), sensor_ids)
+    t = np.concatenate([p.t for _, p in parts])
+    order = np.argsort(t, kind="stable")
+
+    def cat(name: str) -> np.ndarray:
+        return np.ascontiguousarray(np.concatenate([getattr(p, name) for _, p in parts])[order])
+
+    sensor = np.concatenate([np.full(len(p.t), i, dtype=np.int64) for i, p in parts])[order]
+    return MeasurementBatch(
+        t=np.ascontiguousarray(t[order]), model=cat("model"), z=cat("z"), sigma=cat("sigma"),
+        s=cat("s"), sv=cat("sv"), Qr=cat("Qr"), sensor=np.ascontiguousarray(sensor),
+        source_row=cat("source_row"), station=cat("station"), track=cat("track"),
+        sensor_ids=sensor_ids)

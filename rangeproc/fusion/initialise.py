@@ -1,0 +1,80 @@
+"""Automatic track initialisation from the first usable position fixes."""
+from __future__ import annotations
+
+import numpy as np
+
+from rangeproc.errors import DataError
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+from rangeproc.models.motion import N_KINEMATIC
+
+#: Prior 1-sigma around the fitted start (m, m/s, m/s^2): generous, so that the prior does not
+#: bias the smoothed start and early good rows pass the gate.
+PRIOR_SIGMA = (100.0, 50.0, 30.0)
+
+
+def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows that fix position on their own and the fixed positions.
+
+    Returns (row indices (M,), positions (M, 3) range ENU m, 1-sigma (M,) m, a scalar
+    accuracy used as the fit weight): GPS rows with a full position, and radar/theodolite rows
+    with range, azimuth and elevation.
+    """
+    z = batch.z
+    cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
+    sph = (batch.model == SPHERICAL) & np.isfinite(z[:, :3]).all(axis=1)
+    rows = np.flatnonzero(cart | sph)
+    local = np.empty((len(rows), 3))
+    zc = z[rows]
+    is_cart = cart[rows]
+    local[is_cart] = zc[is_cart, :3]
+    r, az, el = zc[~is_cart, 0], zc[~is_cart, 1], zc[~is_cart, 2]
+    local[~is_cart] = np.column_stack([r * np.sin(az) * np.cos(el), r * np.cos(az) * np.cos(el),
+                                       r * np.sin(el)])
+    # local = Qr (p - s)  =>  p = s + Qr^T local
+    pos = batch.s[rows] + np.einsum("nji,nj->ni", batch.Qr[rows], local)
+    sig = batch.sigma[rows]
+    acc = np.where(is_cart, np.sqrt(sig[:, 0] ** 2 + sig[:, 1] ** 2 + sig[:, 2] ** 2),
+                   np.sqrt(sig[:, 0] ** 2 + (zc[:, 0] * sig[:, 1]) ** 2
+                           + (zc[:, 0] * sig[:, 2]) ** 2))
+    return rows, pos, acc
+
+
+def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
+                  n_min: int = 5, n_state: int = N_KINEMATIC) -> tuple[np.ndarray, np.ndarray]:
+    """Prior state (n,) and covariance (n, n) at time ``t0`` (s).
+
+    Fits position and velocity to the fixes of the first ``window`` seconds (at least
+    ``n_min`` fixes) by iteratively reweighted least squares with Huber weights, so a wild
+    point among the first fixes does not bias the start. Raises DataError when no sensor
+    gives position fixes (angle-only or range-rate-only data cannot start a track alone).
+    """
+    rows, pos, acc = position_fixes(batch)
+    if len(rows) < 2:
+        names = ", ".join(batch.sensor_ids)
+        raise DataError(f"cannot initialise the track: no position fixes from sensors ({names});"
+                        " need GPS or radar/theodolite rows with range, azimuth and elevation")
+    t = batch.t[rows]
+    take = t <= t[0] + window
+    if take.sum() < n_min:
+        take = np.arange(len(t)) < n_min
+    tt = t[take] - t0
+    pp = pos[take]
+    w = 1.0 / np.maximum(acc[take], 1e-3) ** 2
+    A = np.column_stack([np.ones_like(tt), tt])
+    coef = np.zeros((2, 3))
+    for _ in range(10):
+        Aw = A * np.sqrt(w)[:, None]
+        coef = np.linalg.lstsq(Aw, pp * np.sqrt(w)[:, None], rcond=None)[0]
+        resid = np.linalg.norm(pp - A @ coef, axis=1) * np.sqrt(w)
+        huber = np.where(resid <= 2.0, 1.0, 2.0 / np.maximum(resid, 1e-12))
+        w = huber / np.maximum(acc[take], 1e-3) ** 2
+    x0 = np.zeros(n_state)
+    x0[0:3] = coef[0]
+    x0[3:6] = coef[1] if len(tt) > 1 and np.ptp(tt) > 0 else 0.0
+    P0 = np.zeros((n_state, n_state))
+    sp, sv, sa = PRIOR_SIGMA
+    P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc[take])) ** 2
+    P0[np.arange(3, 6), np.arange(3, 6)] = sv ** 2
+    P0[np.arange(6, 9), np.arange(6, 9)] = sa ** 2
+    return x0, P0

@@ -1,0 +1,62 @@
+"""From a FusionResult to the products: the output-grid track and per-sensor residuals."""
+from __future__ import annotations
+
+import numpy as np
+
+from rangeproc.estimation.linalg import unpack
+from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.fusion.centralised import FusionResult
+from rangeproc.models.measurement import COMPONENTS
+from rangeproc.results import SensorResiduals, TrackEstimate
+
+
+def grid_covariances(Ps: np.ndarray, n: int) -> np.ndarray:
+    """Unpack (K, n(n+1)/2) packed covariances into (K, n, n)."""
+    out = np.empty((Ps.shape[0], n, n))
+    for k in range(Ps.shape[0]):
+        unpack(Ps[k], out[k])
+    return out
+
+
+def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
+                      sensor_used: np.ndarray) -> np.ndarray:
+    """(K,) distinct sensors with a used row in [t - T/2, t + T/2) around each grid epoch."""
+    half = 0.5 / rate_hz
+    edges = np.append(grid_t - half, grid_t[-1] + half) if len(grid_t) else np.empty(0)
+    count = np.zeros(len(grid_t), dtype=np.int64)
+    for sensor in np.unique(sensor_used):
+        tt = t_used[sensor_used == sensor]
+        hist, _ = np.histogram(tt, bins=edges)
+        count += hist > 0
+    return count
+
+
+def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
+                   rate_hz: float) -> TrackEstimate:
+    """The smoothed state on the output grid, with geodetic position and n_sensors."""
+    t = result.epoch_t[result.grid]
+    x = result.xs[result.grid][:, :9]
+    n = result.xs.shape[1]
+    P = grid_covariances(result.Ps[result.grid], n)[:, :9, :9]
+    lat, lon, h = frame.to_geodetic(x[:, :3])
+    acc = result.accepted
+    ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
+    return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
+                         lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h))
+
+
+def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,
+                     kind: str) -> SensorResiduals:
+    """Residuals of one sensor's rows (only the components the sensor measured at all)."""
+    b = result.batch
+    rows = np.flatnonzero(b.sensor == sensor_index)
+    model = int(b.model[rows[0]]) if len(rows) else 1
+    names, units = COMPONENTS[model]
+    have = [c for c in range(len(names)) if np.isfinite(b.z[rows, c]).any()]
+    station = b.station[rows] if kind == "mistram" else None
+    measured = result.dof[rows] > 0
+    return SensorResiduals(
+        sensor_id=b.sensor_ids[sensor_index], kind=kind, target_id=target_id,
+        components=tuple(names[c] for c in have), units=tuple(units[c] for c in have),
+        time=b.t[rows], residual=result.res[rows][:, have], sigma=b.sigma[rows][:, have],
+        rejected=measured & ~result.accepted[rows], nis=result.nis[rows], station=station)

@@ -1,0 +1,147 @@
+"""Measurement models with analytic Jacobians, shared by every sensor kind.
+
+Every measurement row carries its own geometry, so two models cover all five sensor kinds:
+
+* ``CARTESIAN`` (GPS): components ``[d_e, d_n, d_u, w_e, w_n, w_u]`` with
+  ``d = Qr (p - s)`` and ``w = Qr (v - sv)``: position and velocity in a rotated local frame.
+  For GPS ``s = sv = 0`` and ``Qr`` rotates range ENU into the receiver's local ENU, so the
+  noise is diagonal (horizontal, horizontal, vertical, velocity x3).
+* ``SPHERICAL`` (radar, theodolite, MISTRAM): components ``[R, A, E, Rdot]``:
+  slant range, azimuth, elevation, range rate, from ``d = Qr (p - s)``, ``w = Qr (v - sv)``:
+  ``R = |d|``, ``A = atan2(d_0, d_1)`` (clockwise from the local "north" axis d_1),
+  ``E = atan2(d_2, hypot(d_0, d_1))``, ``Rdot = d . w / R``
+  (seed 003 eq. 3-4 for R, A, E; seed 000 eq. 2 for the range rate
+  ``Rdot^j = alpha^j(t)^T X_v / R^j``).
+  ``Qr`` maps range ENU into the sensor's local (east-like, north-like, up) axes: the site's
+  ENU for a fixed site; for a deck-mounted sensor ``P C^T`` with C body->range-ENU and
+  P = [[0,1,0],[1,0,0],[0,0,-1]] taking FRD to (right, forward, up), so that A is the deck
+  azimuth from the bow toward starboard and E the elevation above the deck plane.
+
+A component that was not measured is NaN in ``z`` and is simply left out of the update.
+
+Shapes: state ``x`` (n,) with the kinematic block first (``[p, v, a]``, range ENU);
+``s``, ``sv`` (3,) sensor position (m) and velocity (m/s) in range ENU; ``Qr`` (3, 3).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+CARTESIAN = 0
+SPHERICAL = 1
+N_COMPONENTS = 6
+
+#: Names and SI units of the components of each model (report and summary use them).
+COMPONENTS = {
+    CARTESIAN: (("e", "n", "u", "ve", "vn", "vu"), ("m", "m", "m", "m/s", "m/s", "m/s")),
+    SPHERICAL: (("range", "azimuth", "elevation", "range_rate"), ("m", "rad", "rad", "m/s")),
+}
+
+#: Component index of an angle that wraps at +-pi (the azimuth of SPHERICAL).
+AZIMUTH = 1
+
+
+@njit(cache=True)
+def wrap_angle(a: float) -> float:
+    """Wrap an angle (rad) to (-pi, pi]."""
+    two_pi = 2.0 * math.pi
+    w = a - two_pi * math.floor((a + math.pi) / two_pi)   # in [-pi, pi)
+    if w == -math.pi:
+        w = math.pi
+    return w
+
+
+@njit(cache=True)
+def _local(x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray):
+    d = np.empty(3)
+    w = np.empty(3)
+    for i in range(3):
+        d[i] = (Qr[i, 0] * (x[0] - s[0]) + Qr[i, 1] * (x[1] - s[1]) + Qr[i, 2] * (x[2] - s[2]))
+        w[i] = (Qr[i, 0] * (x[3] - sv[0]) + Qr[i, 1] * (x[4] - sv[1])
+                + Qr[i, 2] * (x[5] - sv[2]))
+    return d, w
+
+
+@njit(cache=True)
+def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
+            h: np.ndarray, H: np.ndarray) -> None:
+    """Predicted measurement ``h`` (6,) and Jacobian ``H`` (6, n) at state ``x``, in place.
+
+    Unused trailing components (SPHERICAL has 4) are set to zero. Columns of H beyond the
+    kinematic velocity block are zero (measurements do not see acceleration).
+    """
+    d, w = _local(x, s, sv, Qr)
+    H[:, :] = 0.0
+    h[:] = 0.0
+    if model == CARTESIAN:
+        for i in range(3):
+            h[i] = d[i]
+            h[3 + i] = w[i]
+            for j in range(3):
+                H[i, j] = Qr[i, j]
+                H[3 + i, 3 + j] = Qr[i, j]
+        return
+    # SPHERICAL: Jacobians with respect to the local vectors d, w, then chained through Qr.
+    rho2 = d[0] * d[0] + d[1] * d[1]
+    r2 = rho2 + d[2] * d[2]
+    r = math.sqrt(r2)
+    r = max(r, 1e-9)
+    r2 = r * r
+    rho = math.sqrt(rho2)
+    rho = max(rho, 1e-9 * r + 1e-12)
+    rho2 = rho * rho
+    dw = d[0] * w[0] + d[1] * w[1] + d[2] * w[2]
+    h[0] = r
+    h[1] = math.atan2(d[0], d[1])
+    h[2] = math.atan2(d[2], rho)
+    h[3] = dw / r
+    jr = np.empty(3)
+    ja = np.empty(3)
+    je = np.empty(3)
+    jrd_d = np.empty(3)
+    for i in range(3):
+        jr[i] = d[i] / r                                  # dR/dd
+        jrd_d[i] = w[i] / r - dw * d[i] / (r2 * r)        # dRdot/dd
+    ja[0] = d[1] / rho2                                   # dA/dd
+    ja[1] = -d[0] / rho2
+    ja[2] = 0.0
+    je[0] = -d[0] * d[2] / (r2 * rho)                     # dE/dd
+    je[1] = -d[1] * d[2] / (r2 * rho)
+    je[2] = rho / r2
+    for j in range(3):
+        a_r = 0.0
+        a_a = 0.0
+        a_e = 0.0
+        a_rd = 0.0
+        for i in range(3):
+            a_r += jr[i] * Qr[i, j]
+            a_a += ja[i] * Qr[i, j]
+            a_e += je[i] * Qr[i, j]
+            a_rd += jrd_d[i] * Qr[i, j]
+        H[0, j] = a_r
+        H[1, j] = a_a
+        H[2, j] = a_e
+        H[3, j] = a_rd
+        H[3, 3 + j] = a_r                                 # dRdot/dv = (d/R)^T Qr
+
+
+@njit(cache=True)
+def innovation(model: int, z: np.ndarray, h: np.ndarray, out: np.ndarray) -> None:
+    """Residual ``out = z - h`` (6,), azimuth wrapped to (-pi, pi] for SPHERICAL; NaN kept."""
+    for i in range(z.shape[0]):
+        out[i] = z[i] - h[i]
+    if model == SPHERICAL and not math.isnan(out[AZIMUTH]):
+        out[AZIMUTH] = wrap_angle(out[AZIMUTH])
+
+
+def measure_py(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray,
+               Qr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Python wrapper of :func:`measure`: returns ``(h (6,), H (6, n))``."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    h = np.zeros(N_COMPONENTS)
+    H = np.zeros((N_COMPONENTS, x.shape[0]))
+    measure(int(model), x, np.asarray(s, float), np.asarray(sv, float),
+            np.ascontiguousarray(Qr, dtype=np.float64), h, H)
+    return h, H

@@ -1,0 +1,57 @@
+"""Result containers passed from the estimation stages to writers, reports and evaluation."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: State layout of the 9-state constant-acceleration model, range ENU frame, SI units.
+STATE_NAMES = ("e", "n", "u", "ve", "vn", "vu", "ae", "an", "au")
+
+
+@dataclass(frozen=True, slots=True)
+class TrackEstimate:
+    """Smoothed trajectory of one target sampled on the output grid.
+
+    time: (K,) s; x: (K, 9) state [e, n, u, ve, vn, vu, ae, an, au] in range ENU (m, m/s,
+    m/s^2); P: (K, 9, 9) state covariance; n_sensors: (K,) int64, distinct sensors with a used
+    measurement within the output interval around each epoch; lat, lon (deg), height (m):
+    (K,) geodetic position.
+    """
+
+    target_id: str
+    time: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    n_sensors: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    height: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class SensorResiduals:
+    """Post-fit residuals of one sensor against the smoothed trajectory.
+
+    components: names of the measured components, e.g. ("range", "azimuth", "elevation",
+    "range_rate") or ("e", "n", "u", "ve", "vn", "vu") (GPS, receiver-local ENU) or
+    ("range_rate",). units: one unit string per component ("m", "rad", "m/s").
+    time: (N,) s; residual: (N, m) measured minus smoothed prediction in SI units, angles wrapped
+    to (-pi, pi], NaN where the component was not measured; sigma: (N, m) the 1-sigma noise the
+    estimator used for each component (after noise adaptation); rejected: (N,) bool, True when
+    the row was rejected as a wild point by the gate; nis: (N,) float filter innovation
+    chi-square of the row (NaN when not computed); target_id: the target the rows belong to;
+    station: (N,) int64 MISTRAM station index or None.
+    """
+
+    sensor_id: str
+    kind: str
+    target_id: str
+    components: tuple[str, ...]
+    units: tuple[str, ...]
+    time: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    rejected: np.ndarray
+    nis: np.ndarray
+    station: np.ndarray | None = None
