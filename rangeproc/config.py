@@ -1,0 +1,478 @@
+"""Config: TOML -> frozen dataclasses. The only module that reads TOML.
+
+Every error raises :class:`~rangeproc.errors.ConfigError` with a one-line message naming the
+config file and the key at fault, e.g. ``sample.toml: sensors[2].sigma.azimth: unknown key``.
+Angles in the config (``sigma`` angle entries) are converted to radians here using the sensor's
+``angle_unit``; everything downstream is SI (metres, seconds, radians).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from rangeproc.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
+ANGLE_UNITS = ("deg", "rad", "mil")
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class Geodetic:
+    """A WGS-84 point: ``lat``, ``lon`` in degrees (east positive), ``height`` in metres."""
+
+    lat: float
+    lon: float
+    height: float
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class OutputSettings:
+    """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz)."""
+
+    dir: Path
+    rate_hz: float = 10.0
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class TargetSettings:
+    """``[[targets]]`` entry."""
+
+    id: str
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class StationSettings:
+    """A MISTRAM ground station (fixed)."""
+
+    id: str
+    site: Geodetic
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class SensorSettings:
+    """``[[sensors]]`` entry, validated and in SI units.
+
+    ``sigma`` maps component name -> a-priori 1-sigma in SI (m, rad, m/s); components the user
+    did not state carry rangeproc's defaults (see ``DEFAULT_SIGMAS``). ``file`` is absolute.
+    ``lever_arm`` is body FRD in metres (platform sensors only; zeros otherwise).
+    """
+
+    id: str
+    kind: str
+    file: Path
+    site: Geodetic | None = None
+    platform: str | None = None
+    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angle_unit: str = "deg"
+    time_offset: float = 0.0
+    sigma: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    target: str | None = None
+    stations: tuple[StationSettings, ...] = ()
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class ProcessingSettings:
+    """Optional ``[processing]`` section (rangeproc's own; every field has a working default).
+
+    gate_probability: chi-square gate probability for innovation gating (per measurement row).
+    noise_passes: how many times noise sigmas are re-estimated from smoothed residuals.
+    adapt_noise: estimate per-sensor noise (and local bursts) from the data.
+    process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None = choose
+        by maximum likelihood from the data.
+    """
+
+    gate_probability: float = 0.9999
+    noise_passes: int = 2
+    adapt_noise: bool = True
+    process_noise: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class Config:
+    """The whole validated config. ``path`` is the config file (absolute)."""
+
+    path: Path
+    origin: Geodetic
+    output: OutputSettings
+    targets: tuple[TargetSettings, ...]
+    sensors: tuple[SensorSettings, ...]
+    processing: ProcessingSettings = ProcessingSettings()
+
+
+# --------------------------------------------------------------------------------------------
+# Defaults and unit tables (read-only mappings: no module-level mutable state).
+# --------------------------------------------------------------------------------------------
+
+#: a-priori 1-sigma per sensor kind and component, SI (m, rad, m/s); contract key order.
+DEFAULT_SIGMAS: Mapping[str, Mapping[str, float]] = MappingProxyType({
+    "radar": MappingProxyType(
+        {"range": 10.0, "azimuth": 1e-3, "elevation": 1e-3, "range_rate": 0.5}),
+    "theodolite": MappingProxyType({"azimuth": 1e-4, "elevation": 1e-4, "range": 5.0}),
+    "gps": MappingProxyType({"horizontal": 3.0, "vertical": 5.0, "velocity": 0.2}),
+    "mistram": MappingProxyType({"range_rate": 0.1}),
+    "ins": MappingProxyType(
+        {"roll": 1e-4, "pitch": 1e-4, "yaw": 1e-4, "position": 1.0, "velocity": 0.1}),
+})
+
+#: radians per one unit of each ``angle_unit`` (6400 mil per circle).
+ANGLE_TO_RADIANS: Mapping[str, float] = MappingProxyType(
+    {"deg": math.pi / 180.0, "rad": 1.0, "mil": 2.0 * math.pi / 6400.0})
+
+#: components (sigma keys and data columns) that are angles, in ``angle_unit`` at I/O.
+ANGLE_COMPONENTS = frozenset({"azimuth", "elevation", "roll", "pitch", "yaw"})
+
+_TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
+_SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
+                "time_offset", "sigma", "target", "stations")
+_GEODETIC_KEYS = ("lat", "lon", "height")
+_PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise")
+_SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
+_TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
+DEFAULT_TARGET = "T1"
+
+
+# --------------------------------------------------------------------------------------------
+# Loader
+# --------------------------------------------------------------------------------------------
+
+def load_config(path: str | Path) -> Config:
+    """Read and validate a rangeproc TOML config (data contract section 3).
+
+    Relative ``output.dir`` and ``sensors[i].file`` are resolved against the config file's
+    folder. Angle sigmas are converted to radians with the sensor's ``angle_unit``; sigma
+    components the user did not state are filled from :data:`DEFAULT_SIGMAS`.
+
+    Targets: when ``[[targets]]`` is present, every gps/mistram ``target`` must name one of them
+    (and may be omitted only when exactly one target is declared). When ``[[targets]]`` is
+    absent, the targets are the distinct ``target`` names of the gps/mistram sensors in order of
+    first appearance, or the single default target ``"T1"`` when no sensor names one. A
+    gps/mistram sensor without ``target`` is given the only target; when there are several
+    targets, ``target`` is required.
+
+    Sensor data files are not opened here (a missing file is reported by the reader).
+
+    Raises:
+        ConfigError: one line ``<config file name>: <key path>: <problem>``, key paths with
+            TOML names and 0-based list indices, e.g. ``sensors[2].sigma.azimth``.
+    """
+    cfg_path = Path(path).expanduser().resolve()
+    v = _Validator(cfg_path.name)
+    try:
+        with cfg_path.open("rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise v.error("", f"config file not found ({cfg_path})") from None
+    except IsADirectoryError:
+        raise v.error("", f"is a directory, not a config file ({cfg_path})") from None
+    except OSError as exc:
+        raise v.error("", f"cannot read config file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise v.error("", f"not UTF-8 text (byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise _toml_syntax_error(cfg_path.name, exc) from None
+    return v.config(doc, cfg_path)
+
+
+def _toml_syntax_error(name: str, exc: tomllib.TOMLDecodeError) -> ConfigError:
+    msg = " ".join(str(exc).split())
+    m = re.fullmatch(r"(.*) \(at line (\d+), column (\d+)\)", msg)
+    if m:
+        return ConfigError(
+            f"{name}: line {m.group(2)}, column {m.group(3)}: invalid TOML: {m.group(1)}")
+    return ConfigError(f"{name}: invalid TOML: {msg}")
+
+
+def _is_number(x: object) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _type_name(x: object) -> str:
+    names = {bool: "a boolean", str: "a string", int: "an integer", float: "a number",
+             dict: "a table", list: "an array"}
+    return names.get(type(x), f"a {type(x).__name__}")
+
+
+def _show(x: object) -> str:
+    """A TOML-looking rendering of a value for messages."""
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    return repr(x)
+
+
+def _a(kind: str) -> str:
+    """'a radar', 'an ins'."""
+    return f"an {kind}" if kind[:1] in "aeiou" else f"a {kind}"
+
+
+def _join(names: Sequence[str]) -> str:
+    return ", ".join(names)
+
+
+class _Validator:
+    """Walks the parsed TOML document; every check raises a one-line ConfigError."""
+
+    def __init__(self, file_name: str) -> None:
+        self.file_name = file_name
+
+    def error(self, key: str, problem: str) -> ConfigError:
+        where = f"{key}: " if key else ""
+        return ConfigError(f"{self.file_name}: {where}{problem}")
+
+    # ---- primitive checks ----------------------------------------------------------------
+    def table(self, x: object, key: str, allowed: Sequence[str]) -> dict[str, Any]:
+        if not isinstance(x, dict):
+            raise self.error(key, f"expected a table, got {_type_name(x)}")
+        for k in x:
+            if k not in allowed:
+                raise self.error(f"{key}.{k}" if key else k,
+                                 f"unknown key (expected one of: {_join(allowed)})")
+        return x
+
+    def required(self, t: Mapping[str, Any], name: str, key: str) -> Any:
+        if name not in t:
+            raise self.error(f"{key}.{name}" if key else name, "missing required key")
+        return t[name]
+
+    def number(self, x: object, key: str) -> float:
+        if not _is_number(x):
+            raise self.error(key, f"expected a number, got {_type_name(x)} ({_show(x)})")
+        value = float(x)  # type: ignore[arg-type]
+        if not math.isfinite(value):
+            raise self.error(key, f"must be a finite number, got {value}")
+        return value
+
+    def positive(self, x: object, key: str) -> float:
+        value = self.number(x, key)
+        if value <= 0.0:
+            raise self.error(key, f"must be > 0, got {value:g}")
+        return value
+
+    def string(self, x: object, key: str) -> str:
+        if not isinstance(x, str):
+            raise self.error(key, f"expected a string, got {_type_name(x)} ({_show(x)})")
+        if not x.strip():
+            raise self.error(key, "must not be empty")
+        return x
+
+    def array(self, x: object, key: str) -> list[Any]:
+        if not isinstance(x, list):
+            raise self.error(key, f"expected an array, got {_type_name(x)}")
+        return x
+
+    def geodetic(self, x: object, key: str) -> Geodetic:
+        t = self.table(x, key, _GEODETIC_KEYS)
+        lat = self.number(self.required(t, "lat", key), f"{key}.lat")
+        lon = self.number(self.required(t, "lon", key), f"{key}.lon")
+        height = self.number(self.required(t, "height", key), f"{key}.height")
+        if not -90.0 <= lat <= 90.0:
+            raise self.error(f"{key}.lat", f"latitude {lat:g} outside [-90, 90] degrees")
+        if not -180.0 <= lon < 360.0:
+            raise self.error(f"{key}.lon", f"longitude {lon:g} outside [-180, 360) degrees")
+        return Geodetic(lat=lat, lon=lon, height=height)
+
+    def unique_ids(self, ids: Sequence[str], key_of: Callable[[int], str], what: str) -> None:
+        seen: dict[str, int] = {}
+        for i, ident in enumerate(ids):
+            if ident in seen:
+                raise self.error(key_of(i),
+                                 f"duplicate {what} id '{ident}' (also {key_of(seen[ident])})")
+            seen[ident] = i
+
+    # ---- sections ------------------------------------------------------------------------
+    def config(self, doc: dict[str, Any], cfg_path: Path) -> Config:
+        self.table(doc, "", _TOP_KEYS)
+        rng = self.table(self.required(doc, "range", ""), "range", ("origin",))
+        origin = self.geodetic(self.required(rng, "origin", "range"), "range.origin")
+        output = self.output(doc.get("output", {}), cfg_path.parent)
+        declared = self.targets(doc["targets"]) if "targets" in doc else None
+        raw = self.array(self.required(doc, "sensors", ""), "sensors")
+        if not raw:
+            raise self.error("sensors", "at least one sensor is required")
+        sensors = [self.sensor(s, f"sensors[{i}]", cfg_path.parent) for i, s in enumerate(raw)]
+        self.unique_ids([s.id for s in sensors], lambda i: f"sensors[{i}].id", "sensor")
+        self.check_platforms(sensors)
+        targets, sensors = self.assign_targets(declared, sensors)
+        processing = self.processing(doc.get("processing", {}))
+        return Config(path=cfg_path, origin=origin, output=output, targets=targets,
+                      sensors=tuple(sensors), processing=processing)
+
+    def output(self, x: object, folder: Path) -> OutputSettings:
+        t = self.table(x, "output", ("dir", "rate_hz"))
+        out_dir = Path(self.string(t.get("dir", "out"), "output.dir")).expanduser()
+        rate = self.positive(t.get("rate_hz", 10.0), "output.rate_hz")
+        return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate)
+
+    def targets(self, x: object) -> tuple[TargetSettings, ...]:
+        items = self.array(x, "targets")
+        if not items:
+            raise self.error("targets", "empty (omit [[targets]] to use the default target T1)")
+        ids = []
+        for i, item in enumerate(items):
+            t = self.table(item, f"targets[{i}]", ("id",))
+            ids.append(self.string(self.required(t, "id", f"targets[{i}]"), f"targets[{i}].id"))
+        self.unique_ids(ids, lambda i: f"targets[{i}].id", "target")
+        return tuple(TargetSettings(id=ident) for ident in ids)
+
+    def processing(self, x: object) -> ProcessingSettings:
+        t = self.table(x, "processing", _PROCESSING_KEYS)
+        kw: dict[str, Any] = {}
+        if "gate_probability" in t:
+            p = self.number(t["gate_probability"], "processing.gate_probability")
+            if not 0.0 < p < 1.0:
+                raise self.error("processing.gate_probability", f"must be in (0, 1), got {p:g}")
+            kw["gate_probability"] = p
+        if "noise_passes" in t:
+            n = t["noise_passes"]
+            if not isinstance(n, int) or isinstance(n, bool):
+                raise self.error("processing.noise_passes",
+                                 f"expected an integer, got {_type_name(n)} ({_show(n)})")
+            if n < 0:
+                raise self.error("processing.noise_passes", f"must be >= 0, got {n}")
+            kw["noise_passes"] = n
+        if "adapt_noise" in t:
+            if not isinstance(t["adapt_noise"], bool):
+                raise self.error("processing.adapt_noise",
+                                 f"expected true or false, got {_type_name(t['adapt_noise'])}")
+            kw["adapt_noise"] = t["adapt_noise"]
+        if "process_noise" in t:
+            kw["process_noise"] = self.positive(t["process_noise"], "processing.process_noise")
+        return ProcessingSettings(**kw)
+
+    def sensor(self, x: object, key: str, folder: Path) -> SensorSettings:
+        t = self.table(x, key, _SENSOR_KEYS)
+        ident = self.string(self.required(t, "id", key), f"{key}.id")
+        kind = self.string(self.required(t, "kind", key), f"{key}.kind")
+        if kind not in SENSOR_KINDS:
+            raise self.error(f"{key}.kind",
+                             f"unknown sensor kind '{kind}' (expected one of: "
+                             f"{_join(SENSOR_KINDS)})")
+        file = Path(self.string(self.required(t, "file", key), f"{key}.file")).expanduser()
+        unit = self.string(t.get("angle_unit", "deg"), f"{key}.angle_unit")
+        if unit not in ANGLE_UNITS:
+            raise self.error(f"{key}.angle_unit",
+                             f"unknown angle unit '{unit}' (expected one of: "
+                             f"{_join(ANGLE_UNITS)})")
+        time_offset = self.number(t.get("time_offset", 0.0), f"{key}.time_offset")
+
+        site = platform = None
+        lever_arm = (0.0, 0.0, 0.0)
+        if kind in _SITED_KINDS:
+            if ("site" in t) == ("platform" in t):
+                raise self.error(key, f"{_a(kind)} sensor needs exactly one of 'site' (fixed "
+                                      "position) or 'platform' (id of an ins sensor)")
+            if "site" in t:
+                site = self.geodetic(t["site"], f"{key}.site")
+            else:
+                platform = self.string(t["platform"], f"{key}.platform")
+            if "lever_arm" in t:
+                if platform is None:
+                    raise self.error(f"{key}.lever_arm",
+                                     "only allowed together with 'platform'")
+                lever_arm = self.lever_arm(t["lever_arm"], f"{key}.lever_arm")
+        else:
+            for name in ("site", "platform", "lever_arm"):
+                if name in t:
+                    raise self.error(f"{key}.{name}", f"not allowed for {_a(kind)} sensor")
+
+        target = None
+        if "target" in t:
+            if kind not in _TARGETED_KINDS:
+                raise self.error(f"{key}.target", f"not allowed for {_a(kind)} sensor (only "
+                                                  f"{' and '.join(_TARGETED_KINDS)})")
+            target = self.string(t["target"], f"{key}.target")
+
+        stations: tuple[StationSettings, ...] = ()
+        if kind == "mistram":
+            stations = self.stations(self.required(t, "stations", key), f"{key}.stations")
+        elif "stations" in t:
+            raise self.error(f"{key}.stations", f"not allowed for {_a(kind)} sensor "
+                                                "(only mistram)")
+
+        sigma = self.sigma(t.get("sigma", {}), f"{key}.sigma", kind, unit)
+        return SensorSettings(id=ident, kind=kind, file=(folder / file).resolve(), site=site,
+                              platform=platform, lever_arm=lever_arm, angle_unit=unit,
+                              time_offset=time_offset, sigma=sigma, target=target,
+                              stations=stations)
+
+    def lever_arm(self, x: object, key: str) -> tuple[float, float, float]:
+        items = self.array(x, key)
+        if len(items) != 3:
+            raise self.error(key, f"expected 3 numbers [x, y, z] (body FRD, m), got "
+                                  f"{len(items)}")
+        a, b, c = (self.number(v, f"{key}[{i}]") for i, v in enumerate(items))
+        return (a, b, c)
+
+    def stations(self, x: object, key: str) -> tuple[StationSettings, ...]:
+        items = self.array(x, key)
+        if not items:
+            raise self.error(key, "a mistram sensor needs at least one station")
+        out = []
+        for j, item in enumerate(items):
+            k = f"{key}[{j}]"
+            t = self.table(item, k, ("id",) + _GEODETIC_KEYS)
+            ident = self.string(self.required(t, "id", k), f"{k}.id")
+            site = self.geodetic({n: v for n, v in t.items() if n != "id"}, k)
+            out.append(StationSettings(id=ident, site=site))
+        self.unique_ids([s.id for s in out], lambda j: f"{key}[{j}].id", "station")
+        return tuple(out)
+
+    def sigma(self, x: object, key: str, kind: str, unit: str) -> Mapping[str, float]:
+        defaults = DEFAULT_SIGMAS[kind]
+        t = self.table(x, key, tuple(defaults))
+        out = dict(defaults)
+        for name, value in t.items():
+            s = self.positive(value, f"{key}.{name}")
+            out[name] = s * ANGLE_TO_RADIANS[unit] if name in ANGLE_COMPONENTS else s
+        return MappingProxyType(out)
+
+    # ---- cross-references ----------------------------------------------------------------
+    def check_platforms(self, sensors: Sequence[SensorSettings]) -> None:
+        kinds = {s.id: s.kind for s in sensors}
+        for i, s in enumerate(sensors):
+            if s.platform is None:
+                continue
+            if s.platform not in kinds:
+                ins = [k for k, v in kinds.items() if v == "ins"]
+                raise self.error(f"sensors[{i}].platform",
+                                 f"'{s.platform}' names no sensor (ins sensors: "
+                                 f"{_join(ins) or 'none'})")
+            if kinds[s.platform] != "ins":
+                raise self.error(f"sensors[{i}].platform",
+                                 f"'{s.platform}' is {_a(kinds[s.platform])} sensor, not an ins")
+
+    def assign_targets(self, declared: tuple[TargetSettings, ...] | None,
+                       sensors: list[SensorSettings]
+                       ) -> tuple[tuple[TargetSettings, ...], list[SensorSettings]]:
+        if declared is None:
+            named = dict.fromkeys(s.target for s in sensors if s.target is not None)
+            declared = tuple(TargetSettings(id=t) for t in named) or (
+                TargetSettings(id=DEFAULT_TARGET),)
+        else:
+            ids = [t.id for t in declared]
+            for i, s in enumerate(sensors):
+                if s.target is not None and s.target not in ids:
+                    raise self.error(f"sensors[{i}].target",
+                                     f"'{s.target}' is not a declared target "
+                                     f"(declared: {_join(ids)})")
+        out = []
+        for i, s in enumerate(sensors):
+            if s.kind in _TARGETED_KINDS and s.target is None:
+                if len(declared) > 1:
+                    raise self.error(f"sensors[{i}].target",
+                                     f"required for {_a(s.kind)} sensor when there are several "
+                                     f"targets ({_join([t.id for t in declared])})")
+                s = dataclasses.replace(s, target=declared[0].id)
+            out.append(s)
+        return declared, out
