@@ -1,0 +1,160 @@
+"""Accuracy and consistency of a fused trajectory against truth.
+
+``evaluate_run(out_dir, truth_path)`` reads ``out_dir/fused.parquet`` (data contract section 4)
+and a truth table (CSV or Parquet: ``target_id, time, e, n, u, ve, vn, vu``; ``target_id``
+optional, default "T1"), linearly interpolates truth to the fused epochs that lie inside the
+truth span, and returns per-target errors (range ENU frame, m and m/s) and position NEES.
+NEES uses the full 3x3 position covariance when the fused file has ``cov_en, cov_eu, cov_nu``,
+else the diagonal ``sigma_e/n/u``. Successive epochs are correlated, so the chi-square bounds
+of the mean NEES are reported for reference, not as a test.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.stats import chi2
+
+from rangeproc.errors import DataError, NumericalError
+
+FUSED_COLUMNS = ("target_id", "time", "e", "n", "u", "ve", "vn", "vu",
+                 "sigma_e", "sigma_n", "sigma_u")
+TRUTH_COLUMNS = ("time", "e", "n", "u", "ve", "vn", "vu")
+COV_COLUMNS = ("cov_en", "cov_eu", "cov_nu")
+
+
+def _read(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
+    if not path.is_file():
+        raise DataError(f"{path}: file not found")
+    try:
+        df = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"{path}: cannot read table: {exc}") from exc
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise DataError(f"{path}: missing column '{missing[0]}' (need {', '.join(required)})")
+    return df
+
+
+def interpolate_truth(t_truth: np.ndarray, x_truth: np.ndarray, t: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Linear interpolation of truth x_truth (M, k) at times t (n,) -> ((n, k), inside (n,)).
+
+    Rows of t outside [t_truth.min(), t_truth.max()] are flagged False (values are NaN)."""
+    order = np.argsort(t_truth, kind="stable")
+    tt, xx = t_truth[order], x_truth[order]
+    inside = (t >= tt[0]) & (t <= tt[-1])
+    out = np.full((t.size, xx.shape[1]), np.nan)
+    for j in range(xx.shape[1]):
+        out[inside, j] = np.interp(t[inside], tt, xx[:, j])
+    return out, inside
+
+
+def position_covariance(df: pd.DataFrame) -> np.ndarray:
+    """(N, 3, 3) ENU position covariance (m^2) from sigma_* and optional cov_* columns."""
+    sig = df[["sigma_e", "sigma_n", "sigma_u"]].to_numpy(float)
+    cov = np.zeros((len(df), 3, 3))
+    cov[:, [0, 1, 2], [0, 1, 2]] = sig**2
+    if all(c in df.columns for c in COV_COLUMNS):
+        for (i, j), c in zip(((0, 1), (0, 2), (1, 2)), COV_COLUMNS):
+            cov[:, i, j] = cov[:, j, i] = df[c].to_numpy(float)
+    return cov
+
+
+def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray, cov: np.ndarray,
+                  where: str = "") -> dict[str, Any]:
+    """Metrics of position errors (N, 3) m, velocity errors (N, 3) m/s, covariance (N, 3, 3)."""
+    n = pos_err.shape[0]
+    if n == 0:
+        return {"n_epochs": 0, "pos_rmse": None, "pos_rmse_enu": None, "pos_p95": None,
+                "vel_rmse": None, "vel_rmse_enu": None, "vel_p95": None,
+                "inside_3sigma_enu": None, "nees_pos_mean": None, "nees_pos_chi2_95": None}
+    pos_norm, vel_norm = np.linalg.norm(pos_err, axis=1), np.linalg.norm(vel_err, axis=1)
+    sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    try:
+        # NEES_k = e_k^T P_k^-1 e_k (3 dof)
+        nees = np.einsum("ni,ni->n", pos_err, np.linalg.solve(cov, pos_err[:, :, None])[:, :, 0])
+    except np.linalg.LinAlgError as exc:
+        raise NumericalError(f"{where}: singular position covariance in fused output") from exc
+    lo, hi = chi2.ppf([0.025, 0.975], 3 * n) / n
+    return {
+        "n_epochs": int(n),
+        "pos_rmse": _f(np.sqrt(np.mean(pos_norm**2))),
+        "pos_rmse_enu": [_f(x) for x in np.sqrt(np.mean(pos_err**2, axis=0))],
+        "pos_p95": _f(np.percentile(pos_norm, 95)),
+        "vel_rmse": _f(np.sqrt(np.mean(vel_norm**2))),
+        "vel_rmse_enu": [_f(x) for x in np.sqrt(np.mean(vel_err**2, axis=0))],
+        "vel_p95": _f(np.percentile(vel_norm, 95)),
+        "inside_3sigma_enu": [_f(x) for x in np.mean(np.abs(pos_err) <= 3 * sigma, axis=0)],
+        "nees_pos_mean": _f(np.mean(nees)),
+        "nees_pos_chi2_95": [_f(lo), _f(hi)],
+    }
+
+
+def _f(x: float) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def evaluate_run(out_dir: Path, truth_path: Path) -> dict[str, Any]:
+    """Compare ``out_dir/fused.parquet`` with truth; JSON-serialisable result.
+
+    Returns {"fused": path, "truth": path, "targets": {target_id: metrics}, "unmatched":
+    [target ids of fused that truth lacks]}; metrics as :func:`error_metrics` (n_epochs counts
+    the fused epochs inside the truth span with finite state and sigmas).
+    """
+    fused_path, truth_path = Path(out_dir) / "fused.parquet", Path(truth_path)
+    fused = _read(fused_path, FUSED_COLUMNS)
+    truth = _read(truth_path, TRUTH_COLUMNS)
+    truth_ids = (truth["target_id"].astype(str) if "target_id" in truth.columns
+                 else pd.Series("T1", index=truth.index))
+    result: dict[str, Any] = {"fused": str(fused_path), "truth": str(truth_path),
+                              "targets": {}, "unmatched": []}
+    for tid, grp in fused.groupby(fused["target_id"].astype(str), sort=True):
+        tru = truth[truth_ids == tid]
+        if tru.empty:
+            result["unmatched"].append(tid)
+            continue
+        t = grp["time"].to_numpy(float)
+        ref, inside = interpolate_truth(tru["time"].to_numpy(float),
+                                        tru[list(TRUTH_COLUMNS[1:])].to_numpy(float), t)
+        est = grp[list(TRUTH_COLUMNS[1:])].to_numpy(float)
+        cov = position_covariance(grp)
+        ok = inside & np.isfinite(est).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
+        err = est[ok] - ref[ok]
+        result["targets"][tid] = error_metrics(err[:, :3], err[:, 3:], cov[ok],
+                                               f"{fused_path}: target {tid}")
+    return result
+
+
+def format_report(metrics: dict[str, Any]) -> str:
+    """Human-readable table of :func:`evaluate_run`'s result."""
+    head = (f"{'target':<8}{'epochs':>8}  {'pos RMSE m (E/N/U)':<26}{'pos p95':>8}  "
+            f"{'vel RMSE m/s (E/N/U)':<26}{'vel p95':>8}  {'in 3sigma E/N/U':<17}"
+            f"{'NEES':>7}  {'95% bounds':<13}")
+    lines = [f"fused: {metrics.get('fused', '?')}", f"truth: {metrics.get('truth', '?')}",
+             head, "-" * len(head)]
+    for tid, m in metrics.get("targets", {}).items():
+        if not m["n_epochs"]:
+            lines.append(f"{tid:<8}{0:>8}  (no fused epoch inside the truth span)")
+            continue
+        pe, ve, ins = m["pos_rmse_enu"], m["vel_rmse_enu"], m["inside_3sigma_enu"]
+        pos = f"{m['pos_rmse']:.2f} ({pe[0]:.2f}/{pe[1]:.2f}/{pe[2]:.2f})"
+        vel = f"{m['vel_rmse']:.3f} ({ve[0]:.3f}/{ve[1]:.3f}/{ve[2]:.3f})"
+        inside = f"{ins[0]:.3f}/{ins[1]:.3f}/{ins[2]:.3f}"
+        lo, hi = m["nees_pos_chi2_95"]
+        lines.append(f"{tid:<8}{m['n_epochs']:>8}  {pos:<26}{m['pos_p95']:>8.2f}  {vel:<26}"
+                     f"{m['vel_p95']:>8.3f}  {inside:<17}{_num(m['nees_pos_mean']):>7}  "
+                     f"[{lo:.2f}, {hi:.2f}]")
+    if metrics.get("unmatched"):
+        lines.append("unmatched (no truth): " + ", ".join(metrics["unmatched"]))
+    lines.append("NEES: mean position NEES (3 dof, consistent ~3); bounds assume independent "
+                 "epochs (successive epochs are correlated).")
+    return "\n".join(lines)
+
+
+def _num(x: float | None) -> str:
+    return "n/a" if x is None else f"{x:.2f}"

@@ -1,0 +1,401 @@
+"""Scenario per seed: geometry, sensor files, ``scenario.toml`` and ``truth.csv``.
+
+``simulate_scenario(out_dir, seed=..., duration=..., sensors=...)`` writes a complete run
+directory written to the data contract. All randomness comes from
+``numpy.random.default_rng(seed)``, split with ``spawn`` into independent streams (geometry,
+trajectory, one per sensor) so that a reduced ``sensors`` subset gives the same scenario minus
+the omitted files. Seed families: even seeds write GPS times as ISO-8601 strings (then every
+file uses Unix seconds), odd seeds use GPS seconds of week; the theodolite's angle unit cycles
+mil/deg/rad with ``seed % 3``; ``seed % 4 == 1`` puts the ship's heading near north (yaw wraps
+across 0/360); R1 measures range rate on odd seeds; TH1 has a laser range on ``seed % 4 < 2``.
+"""
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+import pymap3d as pm
+
+from rangeproc.errors import ConfigError
+from rangeproc.simulate import sensors as sn
+from rangeproc.simulate.trajectory import Trajectory, plan_trajectory
+
+log = logging.getLogger(__name__)
+
+SENSOR_IDS = ("R1", "TH1", "S1", "SHIP_INS", "G1", "MISTRAM")
+FILES = {"R1": "R1.csv", "TH1": "TH1.parquet", "S1": "S1.csv", "SHIP_INS": "SHIP_INS.csv",
+         "G1": "G1.csv", "MISTRAM": "MISTRAM.csv"}
+LATENCY = 0.05  #: s, the known latency of one sensor (config ``time_offset``)
+TH_MIN_EL, TH_MAX_RANGE, LASER_MAX_RANGE = math.radians(3.0), 25e3, 15e3
+_ISO_EPOCH = dt.datetime(2026, 5, 4, 10, 0, tzinfo=dt.timezone.utc).timestamp()
+_MRAD, _ARCSEC = 1e-3, math.pi / (180.0 * 3600.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """Everything drawn for one seed. Sigmas are SI (m, rad, m/s); times are range times (s)."""
+
+    seed: int
+    duration: float
+    origin: sn.Geo
+    traj: Trajectory
+    iso_gps: bool
+    latency_sensor: str
+    shuffled_sensor: str
+    r1_site: sn.Geo
+    r1_sigma: dict[str, float]
+    th_site: sn.Geo
+    th_sigma: dict[str, float]
+    th_unit: str
+    th_rate: float
+    th_windows: list[tuple[float, float]]
+    ship: sn.ShipMotion
+    lever: tuple[float, float, float]
+    s1_sigma: dict[str, float]
+    ins_sigma: dict[str, float]
+    g1_sigma: dict[str, float]
+    g1_dropouts: list[tuple[float, float]]
+    g1_burst: tuple[float, float]
+    stations: list[tuple[str, sn.Geo]]
+    mistram_sigma: float
+    wild_fraction: float
+
+    @property
+    def t0(self) -> float:
+        return self.traj.t0
+
+    def offset(self, sid: str) -> float:
+        """The ``time_offset`` of sensor ``sid`` (s)."""
+        return LATENCY if sid == self.latency_sensor else 0.0
+
+
+def _geo_at(origin: sn.Geo, e: float, n: float, height: float) -> sn.Geo:
+    lat, lon, _ = pm.enu2geodetic(e, n, 0.0, origin.lat, origin.lon, origin.height)
+    return sn.Geo(round(float(lat), 8), round(float(lon), 8), round(height, 2))
+
+
+def _polar(rng: np.random.Generator, lo: float, hi: float) -> tuple[float, float]:
+    r, a = rng.uniform(lo, hi), rng.uniform(0, 2 * math.pi)
+    return r * math.sin(a), r * math.cos(a)
+
+
+def draw_scenario(seed: int, duration: float) -> Scenario:
+    """Draw the geometry, trajectory and error parameters of scenario ``seed``."""
+    g, traj_rng = np.random.default_rng(seed).spawn(2)
+    origin = sn.Geo(round(float(_sign(g) * g.uniform(20, 60)), 6),
+                    round(float(g.uniform(-180, 180)), 6), round(float(g.uniform(0, 300)), 1))
+    iso = seed % 2 == 0
+    t0 = round(float((_ISO_EPOCH if iso else 345600.0) + g.uniform(0, 7200)), 2)
+    traj = plan_trajectory(traj_rng, duration + 0.5, t0)
+    h0 = origin.height
+    r1_site = _geo_at(origin, *_polar(g, 1.5e3, 6e3), h0 + g.uniform(-30, 300))
+    r1_sigma = {"range": _r(g.uniform(5, 10)), "azimuth": _r(g.uniform(0.2, 1) * _MRAD, 6),
+                "elevation": _r(g.uniform(0.2, 1) * _MRAD, 6)}
+    rr_sigma = _r(g.uniform(0.05, 0.2), 3)
+    if seed % 2 == 1:
+        r1_sigma["range_rate"] = rr_sigma
+    # theodolite near the ground track at a random time, limited coverage windows
+    t_star = t0 + g.uniform(0.3, 0.7) * duration
+    p_star = traj.state(np.array([t_star]))[0][0]
+    de, dn = _polar(g, 4e3, 10e3)
+    th_site = _geo_at(origin, p_star[0] + de, p_star[1] + dn, h0 + g.uniform(-30, 300))
+    th_sigma = {"azimuth": _r(g.uniform(10, 20), 1) * _ARCSEC,
+                "elevation": _r(g.uniform(10, 20), 1) * _ARCSEC}
+    laser_sigma = _r(g.uniform(2, 3))
+    if seed % 4 < 2:
+        th_sigma["range"] = laser_sigma
+    acq = t0 + g.uniform(0.05, 0.2) * duration
+    gaps = sorted((s, s + g.uniform(3, 15)) for s in
+                  acq + g.uniform(0, 1, int(g.integers(1, 3))) * (t0 + duration - acq))
+    th_windows, start = [], acq
+    for a, b in gaps:
+        if a > start:
+            th_windows.append((start, a))
+        start = max(start, b)
+    th_windows.append((start, t0 + duration + 1.0))
+    # ship
+    north = seed % 4 == 1
+    course = math.radians(g.uniform(-1, 1) if north else g.uniform(0, 360)) % (2 * math.pi)
+    speed = g.uniform(5, 12)  # the middle of the ship's track is 15-30 km from the origin
+    mid_e, mid_n = _polar(g, 15e3, 30e3)
+    half = 0.5 * speed * duration
+    ship = sn.ShipMotion(
+        start=_geo_at(origin, mid_e - half * math.sin(course), mid_n - half * math.cos(course),
+                      g.uniform(-30, 40)),
+        course=course, speed=speed,
+        heave=(g.uniform(0.3, 1.5), g.uniform(6, 12), g.uniform(0, 2 * math.pi)),
+        roll=(math.radians(g.uniform(3, 8)), g.uniform(8, 14), g.uniform(0, 2 * math.pi)),
+        pitch=(math.radians(g.uniform(1, 3)), g.uniform(5, 8), g.uniform(0, 2 * math.pi)),
+        yaw=(math.radians(g.uniform(1.5 if north else 1, 2)), g.uniform(10, 20),
+             g.uniform(0, 2 * math.pi)))
+    lever = (round(g.uniform(5, 20), 2), round(g.uniform(-3, 3), 2), round(g.uniform(-25, -10), 2))
+    s1_sigma = {"range": _r(g.uniform(5, 10)), "azimuth": _r(g.uniform(0.3, 1) * _MRAD, 6),
+                "elevation": _r(g.uniform(0.3, 1) * _MRAD, 6)}
+    ins_sigma = {"attitude": math.radians(0.005), "position": 0.1, "velocity": 0.02}
+    g1_sigma = {"horizontal": _r(g.uniform(2, 4)), "vertical": _r(g.uniform(3, 5)),
+                "velocity": _r(g.uniform(0.05, 0.15), 3)}
+    drop = [(s, s + g.uniform(5, 20)) for s in
+            t0 + g.uniform(0.1, 0.9, int(g.integers(1, 3))) * duration]
+    b0 = t0 + g.uniform(0.1, 0.9) * duration
+    burst = (b0, b0 + g.uniform(8, 12))
+    n_st = int(g.integers(4, 9))
+    angles = 2 * math.pi * (np.arange(n_st) + g.uniform(-0.3, 0.3, n_st)) / n_st
+    dists = g.uniform(5e3, 40e3, n_st)
+    stations = [(f"M{i + 1}", _geo_at(origin, d * math.sin(a), d * math.cos(a),
+                                      h0 + g.uniform(-20, 150)))
+                for i, (a, d) in enumerate(zip(angles, dists))]
+    return Scenario(
+        seed=seed, duration=duration, origin=origin, traj=traj, iso_gps=iso,
+        latency_sensor=("R1", "TH1", "G1", "S1")[seed % 4],
+        shuffled_sensor=("MISTRAM", "R1", "S1", "G1")[seed % 4],
+        r1_site=r1_site, r1_sigma=r1_sigma, th_site=th_site, th_sigma=th_sigma,
+        th_unit=("mil", "deg", "rad")[seed % 3], th_rate=float(g.choice([20.0, 25.0])),
+        th_windows=th_windows, ship=ship, lever=lever, s1_sigma=s1_sigma, ins_sigma=ins_sigma,
+        g1_sigma=g1_sigma, g1_dropouts=drop, g1_burst=burst, stations=stations,
+        mistram_sigma=_r(g.uniform(0.03, 0.1), 3), wild_fraction=g.uniform(0.005, 0.01))
+
+
+def _r(x: float, nd: int = 2) -> float:
+    return round(float(x), nd)
+
+
+def _sign(g: np.random.Generator) -> float:
+    """Random sign +-1 (hemisphere)."""
+    return 1.0 if g.random() < 0.5 else -1.0
+
+
+def build_columns(sc: Scenario, sid: str, *, noise: bool = True) -> dict[str, np.ndarray]:
+    """File columns of sensor ``sid`` (file units, rows in file order; NaN = empty cell)."""
+    # child streams of default_rng(seed): 0 geometry, 1 trajectory, 2 + i sensor i (timing and
+    # faults/noise split again) -> each file depends only on the seed and its own stream
+    timing, nz = np.random.default_rng(sc.seed).spawn(3 + SENSOR_IDS.index(sid))[-1].spawn(2)
+    t0, dur, off = sc.t0, sc.duration, sc.offset(sid)
+    rate = {"R1": 20.0, "TH1": sc.th_rate, "S1": 10.0, "SHIP_INS": 50.0, "G1": 10.0,
+            "MISTRAM": 20.0}[sid]
+    t_true = sn.sample_times(timing, t0, dur, rate)
+    if sid == "G1":
+        t_true = t_true[~sn.in_intervals(t_true, sc.g1_dropouts)]
+    t_file, t_meas = sn.file_times(t_true, off)
+    if sid == "G1" and sc.iso_gps:
+        us = np.round((t_true - off) * 1e6).astype(np.int64)
+        t_meas = us / 1e6 + off
+        t_file = np.char.add(np.datetime_as_string(us.astype("datetime64[us]"), unit="us"), "Z")
+    cols: dict[str, np.ndarray]
+    if sid == "MISTRAM":
+        st = np.array([sn.site_enu(geo, sc.origin) for _, geo in sc.stations])
+        cols = sn.mistram_columns(nz, t_file, sc.traj, t_meas, st, [s for s, _ in sc.stations],
+                                  sc.mistram_sigma, noise=noise,
+                                  n_wild=int(nz.integers(5, 21)))
+    elif sid == "SHIP_INS":
+        cols = sn.ins_columns(nz, t_file, t_meas - t0, sc.ship, sc.ins_sigma, noise=noise)
+    else:
+        p, v, _ = sc.traj.state(t_meas)
+        if sid == "G1":
+            cols = sn.gps_columns(nz, t_file, t_meas, p, v, sc.origin, sc.g1_sigma, noise=noise,
+                                  burst=sc.g1_burst, n_wild=int(nz.integers(3, 9)))
+        elif sid == "S1":
+            lat, lon, h = sc.ship.geodetic(t_meas - t0)
+            rae = sn.platform_geometry(p, sc.origin, lat, lon, h, sc.ship.attitude(t_meas - t0),
+                                       np.array(sc.lever))
+            cols = sn.rae_columns(nz, t_file, rae, sc.s1_sigma, "deg", noise=noise,
+                                  wild_fraction=sc.wild_fraction,
+                                  n_missing=int(nz.integers(3, 15)), missing="range")
+        elif sid == "R1":
+            r, az, el, rr = sn.fixed_site_geometry(p, v, sc.origin, sc.r1_site)
+            rae = (r, az, el, rr) if "range_rate" in sc.r1_sigma else (r, az, el)
+            cols = sn.rae_columns(nz, t_file, rae, sc.r1_sigma, "deg", noise=noise,
+                                  wild_fraction=sc.wild_fraction,
+                                  n_missing=int(nz.integers(3, 15)), missing="elevation")
+            cols["track_id"] = np.full(t_file.size, 7, dtype=np.int64)
+        else:  # TH1: limited coverage, optional laser range
+            r, az, el, _ = sn.fixed_site_geometry(p, v, sc.origin, sc.th_site)
+            vis = sn.in_intervals(t_meas, sc.th_windows) & (el > TH_MIN_EL) & (r < TH_MAX_RANGE)
+            laser = np.where(r < LASER_MAX_RANGE, r, np.nan)[vis]
+            cols = sn.rae_columns(nz, t_file[vis], (laser, az[vis], el[vis]), sc.th_sigma,
+                                  sc.th_unit, noise=noise, wild_fraction=sc.wild_fraction,
+                                  n_missing=0, missing="azimuth")
+            if "range" not in sc.th_sigma:
+                del cols["range"]
+    if sid == sc.shuffled_sensor:
+        order = sn.shuffle_chunk(timing, cols["time"].size)
+        cols = {k: val[order] for k, val in cols.items()}
+    return cols
+
+
+def truth_columns(sc: Scenario) -> dict[str, np.ndarray]:
+    """truth.csv columns at the 100 Hz trajectory nodes inside [t0, t0 + duration]."""
+    tr = sc.traj
+    keep = tr.node_time <= sc.t0 + sc.duration + 1e-9
+    p, v, a = tr.node_p[keep], tr.node_v[keep], tr.node_a[keep]
+    lat, lon, h = pm.enu2geodetic(p[:, 0], p[:, 1], p[:, 2], sc.origin.lat, sc.origin.lon,
+                                  sc.origin.height)
+    cols: dict[str, np.ndarray] = {"target_id": np.full(p.shape[0], "T1"),
+                                   "time": np.round(tr.node_time[keep], 6)}
+    for i, ax in enumerate("enu"):
+        cols[ax] = p[:, i]
+    for name, arr in (("v", v), ("a", a)):
+        for i, ax in enumerate("enu"):
+            cols[name + ax] = arr[:, i]
+    cols.update(lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h))
+    return cols
+
+
+def config_text(sc: Scenario, ids: list[str]) -> str:
+    """scenario.toml text with only the data contract's sections and keys."""
+    o = sc.origin
+    lines = [f"# simulated scenario (rangeproc.simulate), seed {sc.seed}, "
+             f"duration {sc.duration:g} s; truth in truth.csv", "",
+             "[range]", f"origin = {_geo_toml(o)}", "", "[output]", 'dir = "out"',
+             "rate_hz = 10.0", "", "[[targets]]", 'id = "T1"']
+    deg = 180.0 / math.pi
+    for sid in ids:
+        e: dict[str, object] = {"id": sid}
+        if sid == "R1":
+            e.update(kind="radar", file=FILES[sid], site=sc.r1_site, angle_unit="deg",
+                     sigma=_sigma_units(sc.r1_sigma, deg))
+        elif sid == "TH1":
+            e.update(kind="theodolite", file=FILES[sid], site=sc.th_site, angle_unit=sc.th_unit,
+                     sigma=_sigma_units(sc.th_sigma, sn.ANGLE_SCALE[sc.th_unit]))
+        elif sid == "S1":
+            e.update(kind="radar", file=FILES[sid], platform="SHIP_INS",
+                     lever_arm=list(sc.lever), angle_unit="deg",
+                     sigma=_sigma_units(sc.s1_sigma, deg))
+        elif sid == "SHIP_INS":
+            att = sc.ins_sigma["attitude"] * deg
+            e.update(kind="ins", file=FILES[sid], angle_unit="deg",
+                     sigma={"roll": att, "pitch": att, "yaw": att,
+                            "position": sc.ins_sigma["position"]})
+        elif sid == "G1":
+            e.update(kind="gps", file=FILES[sid], target="T1", sigma=dict(sc.g1_sigma))
+        else:
+            e.update(kind="mistram", file=FILES[sid], sigma={"range_rate": sc.mistram_sigma},
+                     stations=[{"id": s, "lat": g.lat, "lon": g.lon, "height": g.height}
+                               for s, g in sc.stations])
+        e["time_offset"] = sc.offset(sid)
+        lines += ["", "[[sensors]]"] + [f"{k} = {_toml(val)}" for k, val in e.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _sigma_units(sigma: dict[str, float], angle_scale: float) -> dict[str, float]:
+    return {k: val * angle_scale if k in ("azimuth", "elevation") else val
+            for k, val in sigma.items()}
+
+
+def _geo_toml(g: sn.Geo) -> str:
+    return _toml({"lat": g.lat, "lon": g.lon, "height": g.height})
+
+
+def _toml(val: object) -> str:
+    """TOML literal for str, float/int, list, dict (inline table) or Geo."""
+    if isinstance(val, sn.Geo):
+        return _geo_toml(val)
+    if isinstance(val, str):
+        return '"' + val.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(val, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(x)}" for k, x in val.items()) + " }"
+    if isinstance(val, (list, tuple)):
+        return "[" + ", ".join(_toml(x) for x in val) + "]"
+    return repr(float(val))  # type: ignore[arg-type]
+
+
+def parse_sensor_list(sensors: str) -> list[str]:
+    """'all' or comma-separated ids -> ids in canonical order; ConfigError on bad input."""
+    if sensors.strip().lower() == "all":
+        return list(SENSOR_IDS)
+    want = [s.strip() for s in sensors.split(",") if s.strip()]
+    bad = [s for s in want if s not in SENSOR_IDS]
+    if bad or not want:
+        what = f"unknown id {bad[0]!r}" if bad else "no sensor id"
+        raise ConfigError(f"simulate: sensors={sensors!r}: {what}; choose from "
+                          f"{','.join(SENSOR_IDS)} or 'all'")
+    if "S1" in want and "SHIP_INS" not in want:
+        raise ConfigError(f"simulate: sensors={sensors!r}: S1 needs its platform SHIP_INS")
+    return [s for s in SENSOR_IDS if s in want]
+
+
+def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
+                      sensors: str = "all", noise: bool = True) -> Path:
+    """Write sensor files, ``scenario.toml`` and ``truth.csv`` into out_dir; return the config.
+
+    duration: seconds of flight (>= 20). sensors: 'all' or e.g. 'R1,S1,SHIP_INS,G1'.
+    noise=False writes exact measurements (no noise, wild points, bursts or empty cells; gaps,
+    coverage limits, latency and row shuffling are kept) for tests.
+    """
+    if not duration >= 20.0 or not math.isfinite(duration):
+        raise ConfigError(f"simulate: duration={duration!r}: must be a number >= 20 s")
+    ids = parse_sensor_list(sensors)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    sc = draw_scenario(int(seed), float(duration))
+    for sid in ids:
+        cols = build_columns(sc, sid, noise=noise)
+        atomic_write_table(out_dir / FILES[sid], cols)
+        log.info("simulate: wrote %s (%d rows)", FILES[sid], cols["time"].size)
+    atomic_write_table(out_dir / "truth.csv", truth_columns(sc), truth=True)
+    cfg = out_dir / "scenario.toml"
+    atomic_write_text(cfg, config_text(sc, ids))
+    return cfg
+
+
+#: decimals written per column (keeps files compact; far below every noise level)
+_DECIMALS = {"time": 6, "range": 4, "range_rate": 5, "lat": 10, "lon": 10, "height": 4,
+             "ve": 5, "vn": 5, "vu": 5, "e": 6, "n": 6, "u": 6, "ae": 6, "an": 6, "au": 6,
+             "roll": 8, "pitch": 8, "yaw": 8}
+_ANGLE_DECIMALS = 10  # azimuth/elevation: 1e-10 deg/rad/mil
+
+
+_TRUTH_DECIMALS = {"time": 6, "lat": 11, "lon": 11}  # others: 7 (0.1 um, 0.1 um/s)
+
+
+def _table(cols: dict[str, np.ndarray], decimals: dict[str, int], default: int) -> pa.Table:
+    arrays = {}
+    for k, val in cols.items():
+        if val.dtype.kind == "f":
+            val = np.round(val, decimals.get(k, default))
+            arrays[k] = pa.array(val, from_pandas=True)  # NaN -> null (empty cell)
+        else:
+            arrays[k] = pa.array(val)
+    return pa.table(arrays)
+
+
+def _tmp_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def atomic_write_table(path: Path, cols: dict[str, np.ndarray], *, truth: bool = False) -> None:
+    """Write columns as CSV (plain header, empty cell = missing) or Parquet (by extension),
+    via a temporary file renamed into place. Floats are rounded (``truth``: finer)."""
+    if truth:
+        table = _table(cols, _TRUTH_DECIMALS, 7)
+    else:
+        table = _table(cols, _DECIMALS, _ANGLE_DECIMALS)
+    tmp = _tmp_path(path)
+    try:
+        if path.suffix == ".parquet":
+            pq.write_table(table, tmp)
+        else:
+            with open(tmp, "wb") as f:
+                f.write((",".join(table.column_names) + "\n").encode())
+                pacsv.write_csv(table, f, pacsv.WriteOptions(include_header=False,
+                                                             quoting_style="none"))
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write text via a temporary file renamed into place."""
+    tmp = _tmp_path(path)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
