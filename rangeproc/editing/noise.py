@@ -7,16 +7,21 @@ Two estimators, both robust to wild points (median based):
   for white noise). It only ever *raises* the a-priori sigma for the first pass (at low sample
   rates the signal's own jerk would inflate it), which protects the first pass from stated
   sigmas that are far too small.
-* :func:`residual_sigma` after smoothing: per sensor and component, a global robust scale of
-  the post-fit residuals corrected for the fitted part (``E[res^2] = sigma^2 - H P_s H^T``), and
+* :func:`residual_sigma` after smoothing: per sensor and component, a global scale of the
+  post-fit residuals (RMS clipped at 4 robust sigmas, bursts excluded) corrected for the fitted
+  part (``E[res^2] = sigma^2 - H P_s H^T``), and
   a local (running-median) scale that follows noise bursts, jamming or multipath: where the
-  local scale exceeds the global one by ``burst_ratio`` the row gets the local sigma. This is the
+  local scale exceeds the global one by ``burst_ratio`` the row gets the local sigma (the local
+  scale is dilated over one window so the edges of a short burst are covered too). This is the
   residual-RMS adaptation of seed 000 sec. 2.3.1, done as a smoother-based, windowed estimate.
+  Finally each row is down-weighted by Huber's rule (weight ``min(1, k / |u|)`` for the
+  normalised residual ``u``, i.e. sigma times ``sqrt(|u| / k)``), the M-estimation answer to
+  residuals that are large but not wild; gross outliers are still rejected by the gate.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import maximum_filter1d, median_filter
 
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
@@ -68,8 +73,8 @@ def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
 
 
 def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
-                   accepted: np.ndarray, *, window: int = 101,
-                   burst_ratio: float = 1.5) -> tuple[np.ndarray, dict[tuple[int, int], float]]:
+                   accepted: np.ndarray, *, window: int = 51, burst_ratio: float = 1.5,
+                   huber_k: float = 2.0) -> tuple[np.ndarray, dict[tuple[int, int], float]]:
     """Re-estimate per-row sigmas from smoothed residuals.
 
     Args:
@@ -78,6 +83,7 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
         accepted: (N,) rows the gate accepted (the global scale uses these only).
         window: rows in the running-median window of the local scale.
         burst_ratio: local/global scale ratio above which a row takes the local scale.
+        huber_k: Huber threshold on the normalised residual.
 
     Returns:
         sigma (N, 6) and the global estimate per (sensor index, component).
@@ -93,16 +99,39 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
             if used.sum() < MIN_ROWS:
                 continue
             ru = r[used]
-            scale = MAD_TO_SIGMA * np.median(np.abs(ru - np.median(ru)))
-            var = scale ** 2 + np.median(hph[rows[used], c])
-            glob = float(np.sqrt(var))
-            found[(int(sensor), c)] = glob
-            sig = np.full(len(rows), glob)
+            robust = float(np.sqrt(
+                (MAD_TO_SIGMA * np.median(np.abs(ru - np.median(ru)))) ** 2
+                + np.median(hph[rows[used], c])))
+            sig = np.full(len(rows), robust)
             idx = np.flatnonzero(have)
+            burst = np.zeros(len(rows), dtype=bool)
             if len(idx) >= window:
                 local = MAD_TO_SIGMA * median_filter(np.abs(r[idx]), size=window, mode="nearest")
                 local = np.sqrt(local ** 2 + hph[rows[idx], c])
-                burst = local > burst_ratio * glob
-                sig[idx[burst]] = local[burst]
+                local = np.where(local > burst_ratio * robust, local, 0.0)
+                local = maximum_filter1d(local, size=window, mode="nearest")
+                burst[idx] = local > 0.0
+                sig[idx[local > 0.0]] = local[local > 0.0]
+            glob = _clipped_rms(r, hph[rows, c], used & ~burst, robust)
+            found[(int(sensor), c)] = glob
+            sig[~burst] = glob
+            u = np.abs(np.nan_to_num(r)) / sig
+            sig = sig * np.sqrt(np.maximum(1.0, u / huber_k))
             sigma[rows, c] = sig
     return sigma, found
+
+
+#: E[x^2 | |x| < 4] for a standard normal: the clipped RMS is divided by its square root.
+_CLIP = 4.0
+_CLIP_VAR = 0.998932
+
+
+def _clipped_rms(r: np.ndarray, hph: np.ndarray, use: np.ndarray, robust: float) -> float:
+    """Global sigma: RMS of the used, non-burst residuals inside +-4 robust sigma, corrected
+    for the clipping and for the fitted part (hph). MAD alone is biased low when the noise has
+    heavier-than-Gaussian (but not wild) tails; the RMS is not, and the clip keeps it robust.
+    """
+    keep = use & (np.abs(np.nan_to_num(r)) < _CLIP * robust)
+    if keep.sum() < MIN_ROWS:
+        return robust
+    return float(np.sqrt(np.mean(r[keep] ** 2) / _CLIP_VAR + np.mean(hph[keep])))

@@ -44,15 +44,26 @@ def predict(x: np.ndarray, P: np.ndarray, dt: float, q: float) -> None:
 @njit(cache=True)
 def update_row(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
                Qr: np.ndarray, x: np.ndarray, P: np.ndarray, gate: np.ndarray,
-               work_h: np.ndarray, work_H: np.ndarray) -> tuple[float, int, bool, float]:
+               work_h: np.ndarray, work_H: np.ndarray, x_lin: np.ndarray,
+               use_lin: bool) -> tuple[float, int, bool, float]:
     """Gate and apply one measurement row in place.
 
+    The measurement is linearised at the prediction ``x`` (EKF), or, when ``use_lin``, at
+    ``x_lin`` (iterated smoother pass): ``h(x) ~ h(x_lin) + H(x_lin) (x - x_lin)``.
     Returns ``(nis, m, accepted, logdet_S)`` where ``m`` is the number of measured components.
     ``gate[m]`` is the chi-square threshold for m degrees of freedom (inf disables gating).
     Rows with no measured component return m = 0 and change nothing.
     """
     n = x.shape[0]
-    measure(model, x, s, sv, Qr, work_h, work_H)
+    if use_lin:
+        measure(model, x_lin, s, sv, Qr, work_h, work_H)
+        for i in range(N_COMPONENTS):
+            acc = 0.0
+            for j in range(n):
+                acc += work_H[i, j] * (x[j] - x_lin[j])
+            work_h[i] += acc
+    else:
+        measure(model, x, s, sv, Qr, work_h, work_H)
     y = np.empty(N_COMPONENTS)
     innovation(model, z, work_h, y)
     idx = np.empty(N_COMPONENTS, dtype=np.int64)
@@ -102,20 +113,27 @@ def update_row(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: 
 @njit(cache=True)
 def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
-                Qr: np.ndarray, x0: np.ndarray, P0: np.ndarray, q: float, gate: np.ndarray,
-                reset_after: int, reset_inflation: float):
+                Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray, q: float,
+                gate: np.ndarray, reset_after: int, reset_inflation: float,
+                x_lin: np.ndarray):
     """Run the EKF over all epochs.
 
     Args:
         epoch_t: (E,) ascending distinct epoch times (s); the prior ``x0, P0`` is at epoch_t[0].
         meas_epoch: (N,) epoch index of each row (non-decreasing).
         model: (N,) measurement model code per row; z, sigma: (N, 6) values / 1-sigma (NaN in z
-            = not measured); s, sv: (N, 3) sensor position / velocity in range ENU; Qr: (N,3,3).
+            = not measured); s, sv: (N, 3) sensor position / velocity in range ENU; Qr: (N,3,3);
+            sensor: (N,) int64 sensor index of each row (>= 0).
         x0: (n,), P0: (n, n) prior. q: white-jerk PSD (m^2/s^5). gate: (7,) chi-square
             thresholds by degrees of freedom.
-        reset_after: after this many consecutive rejected rows the kinematic covariance is
-            multiplied by ``reset_inflation`` (divergence guard: the track re-acquires rather
-            than rejecting everything after a manoeuvre it failed to follow). 0 disables.
+        reset_after: divergence guard. When one sensor has this many consecutive rejected
+            rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
+            "agreeing" with a track that drifted along its line of sight), the kinematic
+            covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` so the track
+            re-acquires instead of rejecting that sensor for ever. 0 disables.
+        x_lin: (E, n) linearisation states per epoch (the previous smoothed trajectory: one
+            Gauss-Newton step of the iterated extended Kalman smoother), or an array with zero
+            rows to linearise at the prediction as the plain EKF does.
 
     Returns:
         xf (E, n) filtered states, Pf (E, n(n+1)/2) packed filtered covariances,
@@ -135,30 +153,33 @@ def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     work_h = np.empty(N_COMPONENTS)
     work_H = np.empty((N_COMPONENTS, n))
     loglik = 0.0
-    consecutive = 0
+    consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
     n_resets = 0
+    use_lin = x_lin.shape[0] == E
     i = 0
     for k in range(E):
         if k > 0:
             predict(x, P, epoch_t[k] - epoch_t[k - 1], q)
         while i < N and meas_epoch[i] == k:
             val, m, ok, logdet = update_row(model[i], z[i], sigma[i], s[i], sv[i], Qr[i],
-                                            x, P, gate, work_h, work_H)
+                                            x, P, gate, work_h, work_H,
+                                            x_lin[k] if use_lin else x, use_lin)
             dof[i] = m
             if m > 0:
                 nis[i] = val
                 accepted[i] = ok
                 if ok:
-                    consecutive = 0
+                    consecutive[sensor[i]] = 0
                     loglik -= 0.5 * (val + logdet + m * LOG_2PI)
                 else:
-                    consecutive += 1
+                    consecutive[sensor[i]] += 1
                     loglik -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
-                    if reset_after > 0 and consecutive >= reset_after:
+                    if reset_after > 0 and consecutive[sensor[i]] >= reset_after:
+                        factor = max(reset_inflation, 4.0 * val / gate[m])
                         for a in range(min(n, N_KINEMATIC)):
                             for b in range(min(n, N_KINEMATIC)):
-                                P[a, b] *= reset_inflation
-                        consecutive = 0
+                                P[a, b] *= factor
+                        consecutive[:] = 0
                         n_resets += 1
             i += 1
         for a in range(n):

@@ -8,8 +8,12 @@ Stages (each a function of arrays; numerics in the compiled kernels):
 3. initialisation from the first position fixes (``fusion.initialise``);
 4. process noise: when not configured, the white-jerk PSD is chosen by maximising the
    innovation likelihood over a logarithmic grid (``estimation.tuning``);
-5. filter + smoother, residuals; then ``noise_passes`` times: re-estimate noise from the
-   residuals (global and burst-local), re-select the process noise, re-run.
+5. filter + smoother, residuals; then ``noise_passes`` refinement passes, each one
+   re-linearising every measurement at the previous smoothed trajectory (iterated extended
+   Kalman smoother, i.e. a Gauss-Newton step on the whole flight: Bell, "The iterated Kalman
+   smoother as a Gauss-Newton method", SIAM J. Optim. 1994), and, with ``adapt_noise``,
+   re-estimating the noise from the residuals (global and burst-local) and re-selecting the
+   process noise.
 """
 from __future__ import annotations
 
@@ -36,7 +40,8 @@ class EstimatorSettings:
     """Settings of the centralised estimator.
 
     gate_probability: chi-square gate probability per row (dof = measured components).
-    noise_passes: residual-based noise re-estimation passes after the first.
+    noise_passes: refinement passes after the first (re-linearise at the smoothed track and,
+        with adapt_noise, re-estimate noise and process noise).
     adapt_noise: estimate noise from the data (difference pre-edit + residual passes).
     process_noise: white-jerk PSD q (m^2/s^5); None = maximum likelihood over ``q_grid``.
     q_grid: candidate q values for the likelihood search.
@@ -101,11 +106,11 @@ def _epochs(t_rows: np.ndarray, grid_t: np.ndarray) -> tuple[np.ndarray, np.ndar
     return epoch_t, meas_epoch.astype(np.int64), grid
 
 
-def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st):
+def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     try:
         xf, Pf, nis, dof, acc, _, resets = ekf_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-            batch.Qr, x0, P0, q, gate, st.reset_after, st.reset_inflation)
+            batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin)
         xs, Ps = rts_smooth(epoch_t, xf, Pf, q)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
@@ -124,22 +129,25 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         batch = batch.with_sigma(difference_sigma(batch))
     x0, P0 = initial_state(batch, float(epoch_t[0]))
 
-    def choose_q(b: MeasurementBatch) -> float:
+    def choose_q(b: MeasurementBatch, x_lin: np.ndarray) -> float:
         if settings.process_noise is not None:
             return settings.process_noise
         return select_process_noise(b, epoch_t, meas_epoch, x0, P0, gate, settings.q_grid,
-                                    settings.reset_after, settings.reset_inflation)
+                                    settings.reset_after, settings.reset_inflation, x_lin)
 
-    q = choose_q(batch)
-    out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings)
+    x_lin = np.empty((0, x0.shape[0]))
+    q = choose_q(batch, x_lin)
+    out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
     noise: dict[tuple[int, int], float] = {}
-    for p in range(settings.noise_passes if settings.adapt_noise else 0):
+    for p in range(settings.noise_passes):
         xs, Ps, nis, dof, acc, res, hph, _ = out
-        sigma, noise = residual_sigma(batch, res, hph, acc)
-        batch = batch.with_sigma(sigma)
-        q = choose_q(batch)
+        x_lin = xs
+        if settings.adapt_noise:
+            sigma, noise = residual_sigma(batch, res, hph, acc)
+            batch = batch.with_sigma(sigma)
+            q = choose_q(batch, x_lin)
         log.info("pass %d: q = %.3g m^2/s^5", p + 2, q)
-        out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings)
+        out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
     xs, Ps, nis, dof, acc, res, hph, resets = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, accepted=acc, nis=nis, dof=dof, res=res,

@@ -37,8 +37,8 @@ def _run(t, z, sigma, x0, P0, q, gate, site=np.zeros(3), Qr=np.eye(3), reset_aft
     n = len(t)
     s = np.tile(site, (n, 1))
     return ekf_forward(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s,
-                       np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), x0, P0, q, gate,
-                       reset_after, 100.0)
+                       np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0, q, gate,
+                       reset_after, 100.0, np.empty((0, 9)))
 
 
 def test_ekf_matches_filterpy_extended_kalman_filter():

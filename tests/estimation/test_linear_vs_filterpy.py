@@ -33,8 +33,9 @@ def _run_rangeproc(t, z, sigma, x0, P0, q):
     Qr = np.tile(np.eye(3), (n, 1, 1))
     gate = np.full(7, np.inf)
     xf, Pf, nis, dof, acc, ll, _ = ekf_forward(
-        t, np.arange(n), np.full(n, CARTESIAN), z, sigma, s, s.copy(), Qr, x0, P0, q, gate,
-        0, 1.0)
+        t, np.arange(n), np.full(n, CARTESIAN), z, sigma, s, s.copy(), Qr, np.zeros(n, np.int64),
+        x0, P0, q, gate,
+        0, 1.0, np.empty((0, 9)))
     xs, Ps = rts_smooth(t, xf, Pf, q)
     return xf, Pf, xs, Ps
 

@@ -1,0 +1,142 @@
+"""Command-line interface: a thin click layer over the library.
+
+Each command parses options, calls one library function and turns library errors into exit
+codes: 2 for unusable input or config (one line on stderr naming the file and the row, column
+or key), 3 for a numerical failure, 1 for anything unexpected.
+"""
+from __future__ import annotations
+
+import functools
+import logging
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+import click
+
+from rangeproc import __version__
+from rangeproc.errors import ConfigError, DataError, NumericalError, RangeprocError
+
+EXIT_INPUT = 2
+EXIT_NUMERICAL = 3
+EXIT_INTERNAL = 1
+
+
+def _fail(message: str, code: int) -> None:
+    click.echo(f"rangeproc: error: {message}".replace("\n", " "), err=True)
+    sys.exit(code)
+
+
+def library_errors(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Decorator: map rangeproc exceptions to one-line messages and exit codes."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(*args, **kwargs)
+        except (ConfigError, DataError) as exc:
+            _fail(str(exc), EXIT_INPUT)
+        except NumericalError as exc:
+            _fail(str(exc), EXIT_NUMERICAL)
+        except RangeprocError as exc:
+            _fail(str(exc), EXIT_INTERNAL)
+        except KeyboardInterrupt:
+            _fail("interrupted", 130)
+        except Exception as exc:  # noqa: BLE001 - last line of defence, with --debug for details
+            if logging.getLogger().isEnabledFor(logging.DEBUG):
+                raise
+            _fail(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
+                  "traceback)", EXIT_INTERNAL)
+
+    return wrapper
+
+
+def quiet_option(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Shared ``--quiet`` option: no progress output."""
+    return click.option("--quiet", "-q", is_flag=True,
+                        help="No progress output (also silent when stderr is not a terminal).")(
+        func)
+
+
+def _progress(quiet: bool) -> Callable[[str], None]:
+    if quiet or not sys.stderr.isatty():
+        return lambda msg: None
+    return lambda msg: click.echo(f"[rangeproc] {msg}", err=True)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="rangeproc")
+@click.option("--debug", is_flag=True, help="Verbose logging and full tracebacks.")
+def main(debug: bool) -> None:
+    """rangeproc: fuse flight-test range tracking logs into best-estimate trajectories.
+
+    Reads per-sensor logs (radar, theodolite, GPS, MISTRAM, INS) named by a TOML config,
+    rejects wild points, stabilises moving-platform measurements, filters and smooths all
+    sensors together and writes the fused trajectory per target with its uncertainty.
+    """
+    logging.basicConfig(level=logging.DEBUG if debug else logging.WARNING,
+                        format="rangeproc: %(levelname)s: %(message)s")
+    for noisy in ("numba", "matplotlib", "PIL"):
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+
+
+@main.command("run")
+@click.argument("config", type=click.Path(path_type=Path))
+@quiet_option
+@library_errors
+def run_cmd(config: Path, quiet: bool) -> None:
+    """Process one flight described by CONFIG (TOML, see DATA_CONTRACT.md).
+
+    Writes fused.parquet, summary.json and report/*.png into the config's [output].dir.
+    Exit status 0 on success, 2 for unusable input or config, 3 for a numerical failure.
+    """
+    from rangeproc.pipeline import run
+
+    out = run(config, progress=_progress(quiet))
+    if not quiet:
+        click.echo(f"wrote {len(out.written)} files to {out.out_dir}")
+
+
+@main.command("simulate")
+@click.argument("out_dir", type=click.Path(path_type=Path))
+@click.option("--seed", type=int, default=1, show_default=True, help="Random seed.")
+@click.option("--duration", type=float, default=120.0, show_default=True,
+              help="Flight duration (s).")
+@click.option("--sensors", default="all", show_default=True,
+              help="Comma-separated sensor ids to write (e.g. R1,G1), or 'all'.")
+@quiet_option
+@library_errors
+def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, quiet: bool) -> None:
+    """Write a simulated scenario with truth into OUT_DIR.
+
+    A maneuvering aircraft seen by a fixed radar, a theodolite, a ship-borne radar with INS,
+    target GPS and MISTRAM stations, with realistic noise, dropouts, bursts and wild points.
+    Writes the sensor files, scenario.toml (a contract-only config) and truth.csv.
+    """
+    from rangeproc.simulate import simulate_scenario
+
+    path = simulate_scenario(out_dir, seed=seed, duration=duration, sensors=sensors)
+    if not quiet:
+        click.echo(f"wrote scenario {path}")
+
+
+@main.command("evaluate")
+@click.argument("out_dir", type=click.Path(path_type=Path))
+@click.argument("truth", type=click.Path(path_type=Path))
+@library_errors
+def evaluate_cmd(out_dir: Path, truth: Path) -> None:
+    """Compare OUT_DIR/fused.parquet with a TRUTH trajectory (CSV or Parquet).
+
+    Prints position/velocity RMSE, 95th percentiles, the fraction of epochs inside 3 sigma and
+    the normalised estimation error squared per target; saves OUT_DIR/evaluation.json.
+    """
+    from rangeproc.evaluate import evaluate_run, format_report
+    from rangeproc.io.writers import write_json
+
+    metrics = evaluate_run(out_dir, truth)
+    write_json(metrics, Path(out_dir) / "evaluation.json")
+    click.echo(format_report(metrics))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,197 @@
+"""The processing stages in order: read -> assemble -> fuse -> write -> report.
+
+Each stage is a function from data to new data; ``run`` strings them together and is what
+``rangeproc run CONFIG`` calls.
+"""
+from __future__ import annotations
+
+import logging
+import platform as _platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+import rangeproc
+from rangeproc.config import Config, SensorSettings, load_config
+from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.fusion.assemble import Assembled, assemble_sensor
+from rangeproc.fusion.batch import merge
+from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.io.logs import SensorLog
+from rangeproc.io.output import fused_table
+from rangeproc.io.readers import read_sensor
+from rangeproc.io.writers import file_sha256, write_json, write_parquet
+from rangeproc.models.measurement import COMPONENTS
+from rangeproc.results import SensorResiduals, TrackEstimate
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True, slots=True)
+class RunOutput:
+    """What a run produced: paths written, tracks, residuals and the summary dict."""
+
+    out_dir: Path
+    tracks: tuple[TrackEstimate, ...]
+    residuals: tuple[SensorResiduals, ...]
+    summary: dict
+    written: tuple[Path, ...]
+
+
+def estimator_settings(cfg: Config) -> EstimatorSettings:
+    """Map the optional ``[processing]`` config section onto the estimator's settings."""
+    p = cfg.processing
+    return EstimatorSettings(gate_probability=p.gate_probability, noise_passes=p.noise_passes,
+                             adapt_noise=p.adapt_noise, process_noise=p.process_noise)
+
+
+def read_all(cfg: Config, progress: Progress) -> dict[str, SensorLog]:
+    """Stage 1: read every sensor file (SensorLog per sensor id)."""
+    logs = {}
+    for s in cfg.sensors:
+        progress(f"read {s.id}")
+        logs[s.id] = read_sensor(s)
+    return logs
+
+
+def target_of(sensor: SensorSettings, cfg: Config) -> str:
+    """The target a sensor's rows belong to (single-target association)."""
+    if sensor.target is not None:
+        return sensor.target
+    return cfg.targets[0].id
+
+
+def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
+                 progress: Progress) -> dict[str, Assembled]:
+    """Stage 2: measurement rows with geometry for every non-INS sensor."""
+    ins = {s.id: logs[s.id] for s in cfg.sensors if s.kind == "ins"}
+    if len(cfg.targets) > 1 and any(s.kind in ("radar", "theodolite") for s in cfg.sensors):
+        log.warning("several targets declared: radar/theodolite rows are assigned to %s "
+                    "(multi-target association is not implemented yet)", cfg.targets[0].id)
+    out = {}
+    for s in cfg.sensors:
+        if s.kind == "ins":
+            continue
+        progress(f"assemble {s.id}")
+        out[s.id] = assemble_sensor(logs[s.id], s, frame, ins)
+    return out
+
+
+def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[dict, dict]:
+    model = int(res.batch.model[res.batch.sensor == index][0])
+    names, units = COMPONENTS[model]
+    noise, bias = {}, {}
+    rows = res.batch.sensor == index
+    for c, (name, unit) in enumerate(zip(names, units)):
+        key = {"e": "horizontal", "n": "horizontal", "u": "vertical", "ve": "velocity",
+               "vn": "velocity", "vu": "velocity"}.get(name, name)
+        if not np.isfinite(res.batch.z[rows, c]).any():
+            continue
+        used = rows & res.accepted & np.isfinite(res.res[:, c])
+        noise[name] = {"unit": unit, "apriori": s.sigma.get(key),
+                       "estimated": res.noise.get((index, c))}
+        bias[name] = {"unit": unit,
+                      "median_residual": float(np.median(res.res[used, c])) if used.any()
+                      else None}
+    return noise, bias
+
+
+def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
+    if len(t_used) < 2:
+        return []
+    dt = np.diff(t_used)
+    med = float(np.median(dt)) if len(dt) else 0.0
+    thr = max(min_gap, 10.0 * med)
+    k = np.flatnonzero(dt > thr)
+    return [[float(t_used[i]), float(t_used[i + 1])] for i in k]
+
+
+def run(config_path: str | Path, *, progress: Progress | None = None) -> RunOutput:
+    """Process one flight: read the config and logs, fuse every target, write the outputs."""
+    from rangeproc.report.figures import write_report
+
+    say: Progress = progress or (lambda msg: None)
+    started = time.perf_counter()
+    cfg = load_config(config_path)
+    frame = RangeFrame(cfg.origin)
+    logs = read_all(cfg, say)
+    rows = assemble_all(cfg, frame, logs, say)
+    settings = estimator_settings(cfg)
+    sensor_ids = tuple(s.id for s in cfg.sensors)
+    index = {sid: i for i, sid in enumerate(sensor_ids)}
+    kinds = {s.id: s.kind for s in cfg.sensors}
+    tracks, residuals, target_summary = [], [], {}
+    sensor_summary: dict[str, dict] = {
+        s.id: {"kind": s.kind, "file": str(s.file), "n_read": logs[s.id].n_read,
+               "n_rows": len(logs[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
+               "n_rejected": 0, "n_no_platform_geometry": 0} for s in cfg.sensors}
+    for tgt in cfg.targets:
+        parts = [(index[sid], a.rows) for sid, a in rows.items()
+                 if target_of(cfg.sensors[index[sid]], cfg) == tgt.id and len(a.rows.t)]
+        if not parts:
+            log.warning("target %s: no measurements", tgt.id)
+            continue
+        batch = merge(parts, sensor_ids)
+        say(f"fuse {tgt.id} ({len(batch)} rows)")
+        result = fuse_target(batch, cfg.output.rate_hz, settings)
+        track = track_estimate(tgt.id, result, frame, cfg.output.rate_hz)
+        tracks.append(track)
+        for sid, a in rows.items():
+            i = index[sid]
+            if not (result.batch.sensor == i).any():
+                continue
+            r = sensor_residuals(tgt.id, result, i, kinds[sid])
+            residuals.append(r)
+            ss = sensor_summary[sid]
+            sel = result.batch.sensor == i
+            ss["n_used"] += int((result.accepted & sel).sum())
+            ss["n_rejected"] += int(r.rejected.sum())
+            ss["n_no_platform_geometry"] = a.n_no_platform
+            ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
+            ss["target"] = tgt.id
+        t_used = result.batch.t[result.accepted]
+        target_summary[tgt.id] = {
+            "t_start": float(track.time[0]) if len(track.time) else None,
+            "t_end": float(track.time[-1]) if len(track.time) else None,
+            "n_epochs": int(len(track.time)),
+            "gaps": _gaps(t_used, 1.0),
+            "process_noise_q": result.q, "divergence_resets": result.n_resets,
+            "max_sigma_position_m": float(np.sqrt(np.max(
+                np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
+    out_dir = cfg.output.dir
+    out_dir.mkdir(parents=True, exist_ok=True)
+    say("write fused.parquet")
+    written = [write_parquet(fused_table(tracks), out_dir / "fused.parquet")]
+    say("report")
+    sites = _sites(cfg, frame, rows)
+    written += write_report(out_dir / "report", tracks, residuals, sites=sites)
+    summary = {
+        "rangeproc_version": rangeproc.__version__,
+        "python": _platform.python_version(), "numpy": np.__version__,
+        "config": {"file": str(cfg.path), "sha256": file_sha256(cfg.path)},
+        "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
+                   for s in cfg.sensors},
+        "sensors": sensor_summary, "targets": target_summary,
+        "elapsed_s": time.perf_counter() - started,
+    }
+    written.append(write_json(summary, out_dir / "summary.json"))
+    return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary,
+                     tuple(Path(p) for p in written))
+
+
+def _sites(cfg: Config, frame: RangeFrame, rows: dict[str, Assembled]) -> dict[str, np.ndarray]:
+    sites: dict[str, np.ndarray] = {}
+    for s in cfg.sensors:
+        if s.site is not None:
+            sites[s.id] = frame.site(s.site)[0].reshape(3)
+        elif s.platform is not None and s.id in rows and len(rows[s.id].rows.t):
+            sites[s.id] = rows[s.id].rows.s
+        for st in s.stations:
+            sites[st.id] = frame.site(st.site)[0].reshape(3)
+    return sites
