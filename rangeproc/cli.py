@@ -58,10 +58,43 @@ def quiet_option(func: Callable[..., Any]) -> Callable[..., Any]:
         func)
 
 
-def _progress(quiet: bool) -> Callable[[str], None]:
+class TerminalBars:
+    """One progress bar per pipeline stage on stderr (used only on a terminal)."""
+
+    WIDTH = 28
+
+    def __init__(self) -> None:
+        self._total = 1
+        self._done = 0
+
+    def _draw(self, stage: str, note: str, end: str = "") -> None:
+        frac = min(1.0, self._done / max(self._total, 1))
+        fill = int(round(frac * self.WIDTH))
+        bar = "#" * fill + "-" * (self.WIDTH - fill)
+        click.echo(f"\r{stage:<9}[{bar}] {self._done}/{self._total} {note:<24}", err=True,
+                   nl=False)
+        if end:
+            click.echo(end, err=True, nl=False)
+
+    def start(self, stage: str, total: int) -> None:
+        self._total, self._done = max(total, 1), 0
+        self._draw(stage, "")
+
+    def advance(self, stage: str, n: int = 1, note: str = "") -> None:
+        self._done += n
+        self._draw(stage, note)
+
+    def finish(self, stage: str, seconds: float) -> None:
+        self._done = self._total
+        self._draw(stage, f"{seconds:.2f} s", end="\n")
+
+
+def _clock(quiet: bool) -> Any:
+    from rangeproc.progress import StageClock
+
     if quiet or not sys.stderr.isatty():
-        return lambda msg: None
-    return lambda msg: click.echo(f"[rangeproc] {msg}", err=True)
+        return StageClock()
+    return StageClock(display=TerminalBars())
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -92,7 +125,7 @@ def run_cmd(config: Path, quiet: bool) -> None:
     """
     from rangeproc.pipeline import run
 
-    out = run(config, progress=_progress(quiet))
+    out = run(config, clock=_clock(quiet))
     if not quiet:
         click.echo(f"wrote {len(out.written)} files to {out.out_dir}")
 

@@ -26,22 +26,23 @@ from rangeproc.io.output import fused_table
 from rangeproc.io.readers import read_sensor
 from rangeproc.io.writers import file_sha256, write_json, write_parquet
 from rangeproc.models.measurement import COMPONENTS
+from rangeproc.progress import StageClock
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 log = logging.getLogger(__name__)
 
-Progress = Callable[[str], None]
-
 
 @dataclass(frozen=True, slots=True)
 class RunOutput:
-    """What a run produced: paths written, tracks, residuals and the summary dict."""
+    """What a run produced: paths written, tracks, residuals, the summary dict and the
+    wall-clock seconds per stage."""
 
     out_dir: Path
     tracks: tuple[TrackEstimate, ...]
     residuals: tuple[SensorResiduals, ...]
     summary: dict
     written: tuple[Path, ...]
+    timings: dict[str, float]
 
 
 def estimator_settings(cfg: Config) -> EstimatorSettings:
@@ -51,12 +52,13 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              adapt_noise=p.adapt_noise, process_noise=p.process_noise)
 
 
-def read_all(cfg: Config, progress: Progress) -> dict[str, SensorLog]:
+def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
+             ) -> dict[str, SensorLog]:
     """Stage 1: read every sensor file (SensorLog per sensor id)."""
     logs = {}
     for s in cfg.sensors:
-        progress(f"read {s.id}")
         logs[s.id] = read_sensor(s)
+        tick(1, s.id)
     return logs
 
 
@@ -68,7 +70,7 @@ def target_of(sensor: SensorSettings, cfg: Config) -> str:
 
 
 def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
-                 progress: Progress) -> dict[str, Assembled]:
+                 tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, Assembled]:
     """Stage 2: measurement rows with geometry for every non-INS sensor."""
     ins = {s.id: logs[s.id] for s in cfg.sensors if s.kind == "ins"}
     if len(cfg.targets) > 1 and any(s.kind in ("radar", "theodolite") for s in cfg.sensors):
@@ -78,8 +80,8 @@ def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
     for s in cfg.sensors:
         if s.kind == "ins":
             continue
-        progress(f"assemble {s.id}")
         out[s.id] = assemble_sensor(logs[s.id], s, frame, ins)
+        tick(1, s.id)
     return out
 
 
@@ -112,16 +114,22 @@ def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
     return [[float(t_used[i]), float(t_used[i + 1])] for i in k]
 
 
-def run(config_path: str | Path, *, progress: Progress | None = None) -> RunOutput:
-    """Process one flight: read the config and logs, fuse every target, write the outputs."""
+def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutput:
+    """Process one flight: read the config and logs, fuse every target, write the outputs.
+
+    ``clock`` times the stages (read, assemble, fuse, write, report) and drives the progress
+    display; the default shows nothing.
+    """
     from rangeproc.report.figures import write_report
 
-    say: Progress = progress or (lambda msg: None)
+    clock = clock or StageClock()
     started = time.perf_counter()
     cfg = load_config(config_path)
     frame = RangeFrame(cfg.origin)
-    logs = read_all(cfg, say)
-    rows = assemble_all(cfg, frame, logs, say)
+    with clock.stage("read", len(cfg.sensors)) as tick:
+        logs = read_all(cfg, tick)
+    with clock.stage("assemble", sum(s.kind != "ins" for s in cfg.sensors)) as tick:
+        rows = assemble_all(cfg, frame, logs, tick)
     settings = estimator_settings(cfg)
     sensor_ids = tuple(s.id for s in cfg.sensors)
     index = {sid: i for i, sid in enumerate(sensor_ids)}
@@ -131,22 +139,27 @@ def run(config_path: str | Path, *, progress: Progress | None = None) -> RunOutp
         s.id: {"kind": s.kind, "file": str(s.file), "n_read": logs[s.id].n_read,
                "n_rows": len(logs[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
                "n_rejected": 0, "n_no_platform_geometry": 0} for s in cfg.sensors}
-    for tgt in cfg.targets:
-        parts = [(index[sid], a.rows) for sid, a in rows.items()
-                 if target_of(cfg.sensors[index[sid]], cfg) == tgt.id and len(a.rows.t)]
-        if not parts:
-            log.warning("target %s: no measurements", tgt.id)
-            continue
-        batch = merge(parts, sensor_ids)
-        say(f"fuse {tgt.id} ({len(batch)} rows)")
-        result = fuse_target(batch, cfg.output.rate_hz, settings)
-        track = track_estimate(tgt.id, result, frame, cfg.output.rate_hz)
+    fused: list[tuple[str, FusionResult]] = []
+    with clock.stage("fuse", len(cfg.targets) * (1 + settings.noise_passes)) as tick:
+        for tgt in cfg.targets:
+            parts = [(index[sid], a.rows) for sid, a in rows.items()
+                     if target_of(cfg.sensors[index[sid]], cfg) == tgt.id and len(a.rows.t)]
+            if not parts:
+                log.warning("target %s: no measurements", tgt.id)
+                tick(1 + settings.noise_passes, tgt.id)
+                continue
+            batch = merge(parts, sensor_ids)
+            fused.append((tgt.id, fuse_target(
+                batch, cfg.output.rate_hz, settings,
+                tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"))))
+    for tid, result in fused:
+        track = track_estimate(tid, result, frame, cfg.output.rate_hz)
         tracks.append(track)
         for sid, a in rows.items():
             i = index[sid]
             if not (result.batch.sensor == i).any():
                 continue
-            r = sensor_residuals(tgt.id, result, i, kinds[sid])
+            r = sensor_residuals(tid, result, i, kinds[sid])
             residuals.append(r)
             ss = sensor_summary[sid]
             sel = result.batch.sensor == i
@@ -154,23 +167,27 @@ def run(config_path: str | Path, *, progress: Progress | None = None) -> RunOutp
             ss["n_rejected"] += int(r.rejected.sum())
             ss["n_no_platform_geometry"] = a.n_no_platform
             ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
-            ss["target"] = tgt.id
+            ss["target"] = tid
         t_used = result.batch.t[result.accepted]
-        target_summary[tgt.id] = {
+        target_summary[tid] = {
             "t_start": float(track.time[0]) if len(track.time) else None,
             "t_end": float(track.time[-1]) if len(track.time) else None,
             "n_epochs": int(len(track.time)),
             "gaps": _gaps(t_used, 1.0),
-            "process_noise_q": result.q, "divergence_resets": result.n_resets,
+            "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
+                                "p95": float(np.percentile(result.q, 95)),
+                                "max": float(np.max(result.q))},
+            "divergence_resets": result.n_resets,
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
     out_dir = cfg.output.dir
     out_dir.mkdir(parents=True, exist_ok=True)
-    say("write fused.parquet")
-    written = [write_parquet(fused_table(tracks), out_dir / "fused.parquet")]
-    say("report")
-    sites = _sites(cfg, frame, rows)
-    written += write_report(out_dir / "report", tracks, residuals, sites=sites)
+    with clock.stage("write"):
+        written = [write_parquet(fused_table(tracks), out_dir / "fused.parquet")]
+    with clock.stage("report", 3 + len(residuals)) as tick:
+        written += write_report(out_dir / "report", tracks, residuals,
+                                sites=_sites(cfg, frame, rows),
+                                progress=lambda name: tick(1, name))
     summary = {
         "rangeproc_version": rangeproc.__version__,
         "python": _platform.python_version(), "numpy": np.__version__,
@@ -179,10 +196,12 @@ def run(config_path: str | Path, *, progress: Progress | None = None) -> RunOutp
                    for s in cfg.sensors},
         "sensors": sensor_summary, "targets": target_summary,
         "elapsed_s": time.perf_counter() - started,
+        "stage_seconds": dict(clock.seconds),
     }
-    written.append(write_json(summary, out_dir / "summary.json"))
+    with clock.stage("write"):
+        written.append(write_json(summary, out_dir / "summary.json"))
     return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary,
-                     tuple(Path(p) for p in written))
+                     tuple(Path(p) for p in written), dict(clock.seconds))
 
 
 def _sites(cfg: Config, frame: RangeFrame, rows: dict[str, Assembled]) -> dict[str, np.ndarray]:

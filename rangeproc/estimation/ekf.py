@@ -113,8 +113,8 @@ def update_row(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: 
 @njit(cache=True)
 def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
-                Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray, q: float,
-                gate: np.ndarray, reset_after: int, reset_inflation: float,
+                Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
+                q_steps: np.ndarray, gate: np.ndarray, reset_after: int, reset_inflation: float,
                 x_lin: np.ndarray):
     """Run the EKF over all epochs.
 
@@ -124,8 +124,9 @@ def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
         model: (N,) measurement model code per row; z, sigma: (N, 6) values / 1-sigma (NaN in z
             = not measured); s, sv: (N, 3) sensor position / velocity in range ENU; Qr: (N,3,3);
             sensor: (N,) int64 sensor index of each row (>= 0).
-        x0: (n,), P0: (n, n) prior. q: white-jerk PSD (m^2/s^5). gate: (7,) chi-square
-            thresholds by degrees of freedom.
+        x0: (n,), P0: (n, n) prior. q_steps: (E,) white-jerk PSD (m^2/s^5) of the step
+            ending at each epoch (index 0 unused). gate: (7,) chi-square thresholds by degrees
+            of freedom.
         reset_after: divergence guard. When one sensor has this many consecutive rejected
             rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
             "agreeing" with a track that drifted along its line of sight), the kinematic
@@ -159,7 +160,7 @@ def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     i = 0
     for k in range(E):
         if k > 0:
-            predict(x, P, epoch_t[k] - epoch_t[k - 1], q)
+            predict(x, P, epoch_t[k] - epoch_t[k - 1], q_steps[k])
         while i < N and meas_epoch[i] == k:
             val, m, ok, logdet = update_row(model[i], z[i], sigma[i], s[i], sv[i], Qr[i],
                                             x, P, gate, work_h, work_H,

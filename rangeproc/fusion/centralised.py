@@ -7,18 +7,20 @@ Stages (each a function of arrays; numerics in the compiled kernels):
 2. noise pre-edit: a-priori sigmas raised to difference-based estimates (``editing.noise``);
 3. initialisation from the first position fixes (``fusion.initialise``);
 4. process noise: when not configured, the white-jerk PSD is chosen by maximising the
-   innovation likelihood over a logarithmic grid (``estimation.tuning``);
+   innovation likelihood over a logarithmic grid, then made time-varying in the refinement
+   passes from the smoother's EM statistic (``estimation.tuning``);
 5. filter + smoother, residuals; then ``noise_passes`` refinement passes, each one
    re-linearising every measurement at the previous smoothed trajectory (iterated extended
    Kalman smoother, i.e. a Gauss-Newton step on the whole flight: Bell, "The iterated Kalman
    smoother as a Gauss-Newton method", SIAM J. Optim. 1994), and, with ``adapt_noise``,
-   re-estimating the noise from the residuals (global and burst-local) and re-selecting the
-   process noise.
+   re-estimating the measurement noise from the residuals (global and burst-local) and the
+   local process noise (EM).
 """
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy.stats import chi2
@@ -28,7 +30,7 @@ from rangeproc.errors import NumericalError
 from rangeproc.estimation.ekf import ekf_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.estimation.tuning import select_process_noise
+from rangeproc.estimation.tuning import local_process_noise, select_process_noise
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.initialise import initial_state
 
@@ -43,8 +45,10 @@ class EstimatorSettings:
     noise_passes: refinement passes after the first (re-linearise at the smoothed track and,
         with adapt_noise, re-estimate noise and process noise).
     adapt_noise: estimate noise from the data (difference pre-edit + residual passes).
-    process_noise: white-jerk PSD q (m^2/s^5); None = maximum likelihood over ``q_grid``.
+    process_noise: white-jerk PSD q (m^2/s^5), held constant; None = estimate it: maximum
+        likelihood over ``q_grid`` first, then local EM updates over ``q_window`` seconds.
     q_grid: candidate q values for the likelihood search.
+    q_window: window (s) of the local process-noise estimate.
     reset_after / reset_inflation: divergence guard of the EKF (see ``ekf_forward``).
     """
 
@@ -52,7 +56,8 @@ class EstimatorSettings:
     noise_passes: int = 2
     adapt_noise: bool = True
     process_noise: float | None = None
-    q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 4, 13))
+    q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 4, 7))
+    q_window: float = 2.0
     reset_after: int = 50
     reset_inflation: float = 100.0
 
@@ -64,7 +69,8 @@ class FusionResult:
     epoch_t: (E,) s; xs: (E, n); Ps: (E, n(n+1)/2) packed covariance; grid: (E,) bool, True at
     output-grid epochs; batch: the rows with the sigmas finally used; meas_epoch: (N,);
     accepted, nis, dof: (N,) gate results of the final pass; res, hph: (N, 6) smoothed
-    residuals and explained variance; q: process noise used; noise: global sigma estimate per
+    residuals and explained variance; q: (E,) white-jerk PSD used on the step ending at each
+    epoch (m^2/s^5); noise: global sigma estimate per
     (sensor index, component); n_resets: divergence-guard resets in the final pass.
     """
 
@@ -79,7 +85,7 @@ class FusionResult:
     dof: np.ndarray
     res: np.ndarray
     hph: np.ndarray
-    q: float
+    q: np.ndarray
     noise: dict[tuple[int, int], float]
     n_resets: int
 
@@ -107,48 +113,56 @@ def _epochs(t_rows: np.ndarray, grid_t: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
+    """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
         xf, Pf, nis, dof, acc, _, resets = ekf_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin)
-        xs, Ps = rts_smooth(epoch_t, xf, Pf, q)
+        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
+    del xf, Pf
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
-    return xs, Ps, nis, dof, acc, res, hph, resets
+    return xs, Ps, em, nis, dof, acc, res, hph, resets
 
 
 def fuse_target(batch: MeasurementBatch, rate_hz: float,
-                settings: EstimatorSettings = EstimatorSettings()) -> FusionResult:
-    """Estimate one target's trajectory from its measurement batch (see module docstring)."""
+                settings: EstimatorSettings = EstimatorSettings(),
+                tick: Callable[..., None] = lambda *a, **k: None) -> FusionResult:
+    """Estimate one target's trajectory from its measurement batch (see module docstring).
+
+    ``tick(n, note)`` is called once per pass (progress display).
+    """
     grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)
     epoch_t, meas_epoch, grid = _epochs(batch.t, grid_t)
     gate = gate_thresholds(settings.gate_probability)
     if settings.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
     x0, P0 = initial_state(batch, float(epoch_t[0]))
-
-    def choose_q(b: MeasurementBatch, x_lin: np.ndarray) -> float:
-        if settings.process_noise is not None:
-            return settings.process_noise
-        return select_process_noise(b, epoch_t, meas_epoch, x0, P0, gate, settings.q_grid,
-                                    settings.reset_after, settings.reset_inflation, x_lin)
-
+    if settings.process_noise is not None:
+        q = np.full(len(epoch_t), settings.process_noise)
+    else:
+        q0 = select_process_noise(batch, x0, P0, gate, settings.q_grid, settings.reset_after,
+                                  settings.reset_inflation)
+        log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood)", q0)
+        q = np.full(len(epoch_t), q0)
     x_lin = np.empty((0, x0.shape[0]))
-    q = choose_q(batch, x_lin)
     out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
+    tick(1, "pass 1")
     noise: dict[tuple[int, int], float] = {}
     for p in range(settings.noise_passes):
-        xs, Ps, nis, dof, acc, res, hph, _ = out
+        xs, Ps, em, nis, dof, acc, res, hph, _ = out
         x_lin = xs
         if settings.adapt_noise:
             sigma, noise = residual_sigma(batch, res, hph, acc)
             batch = batch.with_sigma(sigma)
-            q = choose_q(batch, x_lin)
-        log.info("pass %d: q = %.3g m^2/s^5", p + 2, q)
+        if settings.process_noise is None:
+            q = local_process_noise(epoch_t, em, window=settings.q_window)
+        log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
         out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
-    xs, Ps, nis, dof, acc, res, hph, resets = out
+        tick(1, f"pass {p + 2}")
+    xs, Ps, em, nis, dof, acc, res, hph, resets = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, accepted=acc, nis=nis, dof=dof, res=res,
                         hph=hph, q=q, noise=noise, n_resets=resets)

@@ -37,8 +37,8 @@ def _run(t, z, sigma, x0, P0, q, gate, site=np.zeros(3), Qr=np.eye(3), reset_aft
     n = len(t)
     s = np.tile(site, (n, 1))
     return ekf_forward(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s,
-                       np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0, q, gate,
-                       reset_after, 100.0, np.empty((0, 9)))
+                       np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0,
+                       np.full(n, float(q)), gate, reset_after, 100.0, np.empty((0, 9)))
 
 
 def test_ekf_matches_filterpy_extended_kalman_filter():
@@ -136,7 +136,7 @@ def test_100k_step_radar_only_run_stays_consistent():
     assert final_err.max() < 4.0
     # NIS over all steps consistent with 3 dof
     assert abs(np.mean(nis[1000:]) - 3.0) < 0.1
-    xs, Ps = rts_smooth(t, xf, Pf, q)
+    xs, Ps, _ = rts_smooth(t, xf, Pf, np.full(len(t), float(q)))
     assert np.isfinite(xs).all()
     unpack(Ps[n // 2], P)
     assert np.all(np.linalg.eigvalsh(P) > 0)
@@ -157,7 +157,7 @@ def test_monte_carlo_smoothed_nees_inside_chi2_bounds():
         truth = _truth(rng, n, dt, q, start)
         z, sigma = _radar_rows(rng, truth, sig)
         xf, Pf, *_ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
-        xs, Ps = rts_smooth(t, xf, Pf, q)
+        xs, Ps, _ = rts_smooth(t, xf, Pf, np.full(len(t), float(q)))
         k = n // 2
         unpack(Ps[k], P)
         e = xs[k] - truth[k]

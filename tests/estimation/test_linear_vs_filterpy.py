@@ -34,9 +34,9 @@ def _run_rangeproc(t, z, sigma, x0, P0, q):
     gate = np.full(7, np.inf)
     xf, Pf, nis, dof, acc, ll, _ = ekf_forward(
         t, np.arange(n), np.full(n, CARTESIAN), z, sigma, s, s.copy(), Qr, np.zeros(n, np.int64),
-        x0, P0, q, gate,
+        x0, P0, np.full(n, float(q)), gate,
         0, 1.0, np.empty((0, 9)))
-    xs, Ps = rts_smooth(t, xf, Pf, q)
+    xs, Ps, _ = rts_smooth(t, xf, Pf, np.full(len(t), float(q)))
     return xf, Pf, xs, Ps
 
 
