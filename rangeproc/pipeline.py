@@ -6,6 +6,7 @@ Each stage is a function from data to new data; ``run`` strings them together an
 from __future__ import annotations
 
 import logging
+import os
 import platform as _platform
 import time
 from dataclasses import dataclass
@@ -16,6 +17,7 @@ import numpy as np
 
 import rangeproc
 from rangeproc.config import Config, SensorSettings, load_config
+from rangeproc.errors import ConfigError
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
@@ -95,7 +97,7 @@ def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[di
                "vn": "velocity", "vu": "velocity"}.get(name, name)
         if not np.isfinite(res.batch.z[rows, c]).any():
             continue
-        used = rows & res.accepted & np.isfinite(res.res[:, c])
+        used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
         noise[name] = {"unit": unit, "apriori": s.sigma.get(key),
                        "estimated": res.noise.get((index, c))}
         bias[name] = {"unit": unit,
@@ -125,6 +127,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     clock = clock or StageClock()
     started = time.perf_counter()
     cfg = load_config(config_path)
+    check_output_dir(cfg)
     frame = RangeFrame(cfg.origin)
     with clock.stage("read", len(cfg.sensors)) as tick:
         logs = read_all(cfg, tick)
@@ -163,12 +166,14 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             residuals.append(r)
             ss = sensor_summary[sid]
             sel = result.batch.sensor == i
-            ss["n_used"] += int((result.accepted & sel).sum())
-            ss["n_rejected"] += int(r.rejected.sum())
+            ss["n_used"] += int((result.used[sel].any(axis=1)).sum())
+            ss["n_rejected"] += int(r.rejected.any(axis=1).sum())
+            ss["n_components_rejected"] = {
+                name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
             ss["n_no_platform_geometry"] = a.n_no_platform
             ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
             ss["target"] = tid
-        t_used = result.batch.t[result.accepted]
+        t_used = result.batch.t[result.used.any(axis=1)]
         target_summary[tid] = {
             "t_start": float(track.time[0]) if len(track.time) else None,
             "t_end": float(track.time[-1]) if len(track.time) else None,
@@ -180,8 +185,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             "divergence_resets": result.n_resets,
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
-    out_dir = cfg.output.dir
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_output_dir(cfg)
     with clock.stage("write"):
         written = [write_parquet(fused_table(tracks), out_dir / "fused.parquet")]
     with clock.stage("report", 3 + len(residuals)) as tick:
@@ -202,6 +206,30 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         written.append(write_json(summary, out_dir / "summary.json"))
     return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary,
                      tuple(Path(p) for p in written), dict(clock.seconds))
+
+
+def check_output_dir(cfg: Config) -> None:
+    """Fail fast, before any processing and without creating anything, when ``[output].dir``
+    cannot be a writable directory (an existing file, or a parent that is not writable)."""
+    out_dir = cfg.output.dir
+    probe = out_dir
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ConfigError(f"{cfg.path.name}: output.dir: {probe} exists and is not a directory")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise ConfigError(f"{cfg.path.name}: output.dir: {probe} is not writable")
+
+
+def make_output_dir(cfg: Config) -> Path:
+    """Create ``[output].dir`` (just before the first write)."""
+    out_dir = cfg.output.dir
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"{cfg.path.name}: output.dir: cannot create {out_dir}: "
+                          f"{exc.strerror or exc}") from exc
+    return out_dir
 
 
 def _sites(cfg: Config, frame: RangeFrame, rows: dict[str, Assembled]) -> dict[str, np.ndarray]:

@@ -73,14 +73,14 @@ def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
 
 
 def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
-                   accepted: np.ndarray, *, window: int = 51, burst_ratio: float = 1.5,
+                   used: np.ndarray, *, window: int = 51, burst_ratio: float = 2.0,
                    huber_k: float = 2.0) -> tuple[np.ndarray, dict[tuple[int, int], float]]:
     """Re-estimate per-row sigmas from smoothed residuals.
 
     Args:
         batch: the batch (its ``sigma`` is the fallback where data are too few).
         res, hph: (N, 6) from :func:`rangeproc.estimation.residuals.smoothed_residuals`.
-        accepted: (N,) rows the gate accepted (the global scale uses these only).
+        used: (N, 6) components the gate accepted (the global scale uses these only).
         window: rows in the running-median window of the local scale.
         burst_ratio: local/global scale ratio above which a row takes the local scale.
         huber_k: Huber threshold on the normalised residual.
@@ -95,13 +95,13 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
         for c in range(N_COMPONENTS):
             r = res[rows, c]
             have = np.isfinite(r)
-            used = have & accepted[rows]
-            if used.sum() < MIN_ROWS:
+            used_c = have & used[rows, c]
+            if used_c.sum() < MIN_ROWS:
                 continue
-            ru = r[used]
+            ru = r[used_c]
             robust = float(np.sqrt(
                 (MAD_TO_SIGMA * np.median(np.abs(ru - np.median(ru)))) ** 2
-                + np.median(hph[rows[used], c])))
+                + np.median(hph[rows[used_c], c])))
             sig = np.full(len(rows), robust)
             idx = np.flatnonzero(have)
             burst = np.zeros(len(rows), dtype=bool)
@@ -112,7 +112,7 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
                 local = maximum_filter1d(local, size=window, mode="nearest")
                 burst[idx] = local > 0.0
                 sig[idx[local > 0.0]] = local[local > 0.0]
-            glob = _clipped_rms(r, hph[rows, c], used & ~burst, robust)
+            glob = _clipped_rms(r, hph[rows, c], used_c & ~burst, robust)
             found[(int(sensor), c)] = glob
             sig[~burst] = glob
             u = np.abs(np.nan_to_num(r)) / sig

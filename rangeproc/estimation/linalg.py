@@ -16,7 +16,7 @@ def packed_size(n: int) -> int:
     return n * (n + 1) // 2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def pack(P: np.ndarray, out: np.ndarray) -> None:
     """Store the lower triangle of symmetric ``P`` (n, n) into ``out`` (n(n+1)/2,)."""
     n = P.shape[0]
@@ -27,7 +27,7 @@ def pack(P: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def unpack(p: np.ndarray, out: np.ndarray) -> None:
     """Inverse of :func:`pack`: fill the full symmetric ``out`` (n, n)."""
     n = out.shape[0]
@@ -39,7 +39,7 @@ def unpack(p: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     """Lower Cholesky factor of the leading (m, m) block of ``S``, in place. False if not PD."""
     for j in range(m):
@@ -60,23 +60,31 @@ def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def chol_solve_inplace(L: np.ndarray, m: int, B: np.ndarray, ncols: int) -> None:
-    """Solve ``(L L^T) X = B`` for the leading (m, ncols) block of ``B``, in place."""
-    for c in range(ncols):
-        for i in range(m):                       # forward: L y = b
-            v = B[i, c]
-            for k in range(i):
-                v -= L[i, k] * B[k, c]
-            B[i, c] = v / L[i, i]
-        for i in range(m - 1, -1, -1):           # backward: L^T x = y
-            v = B[i, c]
-            for k in range(i + 1, m):
-                v -= L[k, i] * B[k, c]
-            B[i, c] = v / L[i, i]
+    """Solve ``(L L^T) X = B`` for the leading (m, ncols) block of ``B``, in place.
+
+    Row-oriented so the innermost loop runs over contiguous columns of ``B``.
+    """
+    for i in range(m):                           # forward: L Y = B
+        for k in range(i):
+            lik = L[i, k]
+            for c in range(ncols):
+                B[i, c] -= lik * B[k, c]
+        inv = 1.0 / L[i, i]
+        for c in range(ncols):
+            B[i, c] *= inv
+    for i in range(m - 1, -1, -1):               # backward: L^T X = Y
+        for k in range(i + 1, m):
+            lki = L[k, i]
+            for c in range(ncols):
+                B[i, c] -= lki * B[k, c]
+        inv = 1.0 / L[i, i]
+        for c in range(ncols):
+            B[i, c] *= inv
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def symmetrize(P: np.ndarray) -> None:
     """Replace ``P`` by ``(P + P^T) / 2`` in place."""
     n = P.shape[0]

@@ -4,11 +4,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation.kernels import N_OBSERVED
 from rangeproc.estimation.linalg import unpack
 from rangeproc.models.measurement import N_COMPONENTS, innovation, measure
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                        s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, xs: np.ndarray,
                        Ps: np.ndarray):
@@ -39,12 +40,14 @@ def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
             last = k
         measure(model[i], xs[k], s[i], sv[i], Qr[i], h, H)
         innovation(model[i], z[i], h, y)
-        HP = H @ P
         for c in range(N_COMPONENTS):
             if not np.isnan(y[c]):
                 res[i, c] = y[c]
-                acc = 0.0
-                for j in range(n):
-                    acc += HP[c, j] * H[c, j]
+                acc = 0.0                              # (H P H^T)_cc, H sparse
+                for a in range(N_OBSERVED):
+                    ha = H[c, a]
+                    if ha != 0.0:
+                        for b in range(N_OBSERVED):
+                            acc += ha * P[a, b] * H[c, b]
                 hph[i, c] = acc
     return res, hph

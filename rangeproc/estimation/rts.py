@@ -24,23 +24,25 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation.kernels import add_q, left_f, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
-from rangeproc.models.motion import ca_transition
 
 
-@njit(cache=True)
-def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray):
+@njit(cache=True, error_model="numpy")
+def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
+               want_em: bool = True):
     """Smooth filtered states.
 
     Args:
         epoch_t: (E,) epoch times (s); xf: (E, n) filtered states; Pf: (E, n(n+1)/2) packed
             filtered covariances; q_steps: (E,) white-jerk PSD (m^2/s^5) of the step ending at
             each epoch (``q_steps[0]`` unused), the same the filter used.
+        want_em: compute the EM statistic (skipped when only the smoothed track is wanted).
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) packed smoothed states and covariances, and
         em (E,) the EM acceleration-increment statistic of the step ending at each epoch
-        (m^2/s^4, ``em[0] = 0``).
+        (m^2/s^4, ``em[0] = 0``; all zero when ``want_em`` is False).
     """
     E, n = xf.shape
     xs = xf.copy()
@@ -48,29 +50,104 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     em = np.zeros(E)
     P_f = np.empty((n, n))
     P_next = np.empty((n, n))
+    P_pred = np.empty((n, n))
+    FP = np.empty((n, n))
+    Ct = np.empty((n, n))                              # C^T, then reused
+    At = np.empty((n, n))
+    T = np.empty((n, n))
+    M = np.empty((n, n))
+    x_pred = np.empty(n)
+    dx = np.empty(n)
     unpack(Pf[E - 1], P_next)
     for k in range(E - 2, -1, -1):
-        F, Q = ca_transition(n, epoch_t[k + 1] - epoch_t[k], q_steps[k + 1])
+        dt = epoch_t[k + 1] - epoch_t[k]
+        q = q_steps[k + 1]
         unpack(Pf[k], P_f)
-        FP = F @ P_f                                   # (n, n)
-        P_pred = FP @ F.T + Q
-        x_pred = F @ xf[k]
-        # C^T = P_pred^-1 F P_f  (P_pred symmetric positive definite)
-        L = P_pred.copy()
-        if not cholesky_inplace(L, n):
+        for i in range(n):
+            x_pred[i] = xf[k, i]
+            for j in range(n):
+                P_pred[i, j] = P_f[i, j]
+        predict_state(x_pred, dt)
+        predict_cov(P_pred, T, dt, q)                  # P_pred = F P_f F^T + Q
+        left_f(P_f, FP, dt)                            # F P_f
+        if not cholesky_inplace(P_pred, n):
             raise FloatingPointError("predicted covariance not positive definite in RTS")
-        Ct = FP.copy()
-        chol_solve_inplace(L, n, Ct, n)
-        C = Ct.T
-        xs[k] = xf[k] + C @ (xs[k + 1] - x_pred)
-        A = np.eye(n) - C @ F
-        P_s = A @ P_f @ A.T + C @ (Q + P_next) @ Ct
-        pack(P_s, Ps[k])
-        cross = P_next @ Ct                            # P_{k+1,k|N}
-        acc = 0.0
-        for ax in range(6, 9):
-            d = xs[k + 1, ax] - xs[k, ax]
-            acc += d * d + P_next[ax, ax] + P_s[ax, ax] - 2.0 * cross[ax, ax]
-        em[k + 1] = acc / 3.0
-        unpack(Ps[k], P_next)
+        for i in range(n):
+            for j in range(n):
+                Ct[i, j] = FP[i, j]
+        chol_solve_inplace(P_pred, n, Ct, n)           # C^T = P_pred^-1 F P_f
+        for i in range(n):
+            dx[i] = xs[k + 1, i] - x_pred[i]
+        for i in range(n):                             # xs = xf + C (xs_next - x_pred)
+            acc = xf[k, i]
+            for j in range(n):
+                acc += Ct[j, i] * dx[j]
+            xs[k, i] = acc
+        # A^T = I - F^T C^T (F^T applied through its structure)
+        left_f_t(Ct, At, dt)
+        for i in range(n):
+            for j in range(n):
+                At[i, j] = -At[i, j]
+            At[i, i] += 1.0
+        # P_s = A P_f A^T + C (Q + P_next) C^T   (symmetric positive semi-definite terms);
+        # every product below runs its innermost loop over contiguous columns.
+        for i in range(n):                             # M = A P_f
+            for j in range(n):
+                M[i, j] = 0.0
+            for l in range(n):
+                a = At[l, i]
+                for j in range(n):
+                    M[i, j] += a * P_f[l, j]
+        for i in range(n):                             # T = P_next + Q
+            for j in range(n):
+                T[i, j] = P_next[i, j]
+        add_q(T, dt, q)
+        for i in range(n):                             # FP <- C (P_next + Q)
+            for j in range(n):
+                FP[i, j] = 0.0
+            for l in range(n):
+                c = Ct[l, i]
+                for j in range(n):
+                    FP[i, j] += c * T[l, j]
+        for i in range(n):                             # P_s = M A^T + FP C^T (lower half)
+            for j in range(i + 1):
+                P_f[i, j] = 0.0
+            for l in range(n):
+                a = M[i, l]
+                c = FP[i, l]
+                for j in range(i + 1):
+                    P_f[i, j] += a * At[l, j] + c * Ct[l, j]
+        for i in range(n):
+            for j in range(i):
+                P_f[j, i] = P_f[i, j]
+        pack(P_f, Ps[k])
+        if want_em:                                    # EM statistic, lag-one covariance
+            acc = 0.0                                  # P_{k+1,k|N} = P_next C^T
+            for ax in range(6, 9):
+                cross = 0.0
+                for l in range(n):
+                    cross += P_next[ax, l] * Ct[l, ax]
+                d = xs[k + 1, ax] - xs[k, ax]
+                acc += d * d + P_next[ax, ax] + P_f[ax, ax] - 2.0 * cross
+            em[k + 1] = acc / 3.0
+        for i in range(n):
+            for j in range(n):
+                P_next[i, j] = P_f[i, j]
     return xs, Ps, em
+
+
+@njit(cache=True, error_model="numpy")
+def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
+    """``out <- F^T B`` (n, n) using the Kronecker structure of F (F^T is lower triangular)."""
+    n = B.shape[0]
+    h2 = 0.5 * dt * dt
+    for j in range(n):
+        for a in range(3):
+            b0 = B[a, j]
+            b1 = B[3 + a, j]
+            b2 = B[6 + a, j]
+            out[a, j] = b0
+            out[3 + a, j] = dt * b0 + b1
+            out[6 + a, j] = h2 * b0 + dt * b1 + b2
+        for i in range(9, n):
+            out[i, j] = B[i, j]

@@ -68,7 +68,8 @@ class FusionResult:
 
     epoch_t: (E,) s; xs: (E, n); Ps: (E, n(n+1)/2) packed covariance; grid: (E,) bool, True at
     output-grid epochs; batch: the rows with the sigmas finally used; meas_epoch: (N,);
-    accepted, nis, dof: (N,) gate results of the final pass; res, hph: (N, 6) smoothed
+    used: (N, 6) bool, component measured and accepted by the gate in the final pass;
+    nis, dof: (N,) row innovation chi-square and measured components; res, hph: (N, 6) smoothed
     residuals and explained variance; q: (E,) white-jerk PSD used on the step ending at each
     epoch (m^2/s^5); noise: global sigma estimate per
     (sensor index, component); n_resets: divergence-guard resets in the final pass.
@@ -80,7 +81,7 @@ class FusionResult:
     grid: np.ndarray
     batch: MeasurementBatch
     meas_epoch: np.ndarray
-    accepted: np.ndarray
+    used: np.ndarray
     nis: np.ndarray
     dof: np.ndarray
     res: np.ndarray
@@ -112,10 +113,16 @@ def _epochs(t_rows: np.ndarray, grid_t: np.ndarray) -> tuple[np.ndarray, np.ndar
     return epoch_t, meas_epoch.astype(np.int64), grid
 
 
+def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
+    """(N, 6) bool: component measured and not rejected by the gate (bit mask ``rejected``)."""
+    bits = (rejected[:, None] >> np.arange(z.shape[1])[None, :]) & 1
+    return np.isfinite(z) & (bits == 0)
+
+
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, acc, _, resets = ekf_forward(
+        xf, Pf, nis, dof, rej, _, resets = ekf_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin)
         xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q)
@@ -124,7 +131,7 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
     del xf, Pf
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
-    return xs, Ps, em, nis, dof, acc, res, hph, resets
+    return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets
 
 
 def fuse_target(batch: MeasurementBatch, rate_hz: float,
@@ -152,17 +159,17 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     tick(1, "pass 1")
     noise: dict[tuple[int, int], float] = {}
     for p in range(settings.noise_passes):
-        xs, Ps, em, nis, dof, acc, res, hph, _ = out
+        xs, Ps, em, nis, dof, used, res, hph, _ = out
         x_lin = xs
         if settings.adapt_noise:
-            sigma, noise = residual_sigma(batch, res, hph, acc)
+            sigma, noise = residual_sigma(batch, res, hph, used)
             batch = batch.with_sigma(sigma)
         if settings.process_noise is None:
             q = local_process_noise(epoch_t, em, window=settings.q_window)
         log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
         out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
         tick(1, f"pass {p + 2}")
-    xs, Ps, em, nis, dof, acc, res, hph, resets = out
+    xs, Ps, em, nis, dof, used, res, hph, resets = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
-                        meas_epoch=meas_epoch, accepted=acc, nis=nis, dof=dof, res=res,
+                        meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,
                         hph=hph, q=q, noise=noise, n_resets=resets)

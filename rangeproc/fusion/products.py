@@ -39,7 +39,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     n = result.xs.shape[1]
     P = grid_covariances(result.Ps[result.grid], n)[:, :9, :9]
     lat, lon, h = frame.to_geodetic(x[:, :3])
-    acc = result.accepted
+    acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h))
@@ -54,9 +54,9 @@ def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,
     names, units = COMPONENTS[model]
     have = [c for c in range(len(names)) if np.isfinite(b.z[rows, c]).any()]
     station = b.station[rows] if kind == "mistram" else None
-    measured = result.dof[rows] > 0
+    measured = np.isfinite(b.z[rows][:, have])
     return SensorResiduals(
         sensor_id=b.sensor_ids[sensor_index], kind=kind, target_id=target_id,
         components=tuple(names[c] for c in have), units=tuple(units[c] for c in have),
         time=b.t[rows], residual=result.res[rows][:, have], sigma=b.sigma[rows][:, have],
-        rejected=measured & ~result.accepted[rows], nis=result.nis[rows], station=station)
+        rejected=measured & ~result.used[rows][:, have], nis=result.nis[rows], station=station)

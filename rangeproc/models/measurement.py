@@ -43,7 +43,7 @@ COMPONENTS = {
 AZIMUTH = 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def wrap_angle(a: float) -> float:
     """Wrap an angle (rad) to (-pi, pi]."""
     two_pi = 2.0 * math.pi
@@ -53,81 +53,78 @@ def wrap_angle(a: float) -> float:
     return w
 
 
-@njit(cache=True)
-def _local(x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray):
-    d = np.empty(3)
-    w = np.empty(3)
-    for i in range(3):
-        d[i] = (Qr[i, 0] * (x[0] - s[0]) + Qr[i, 1] * (x[1] - s[1]) + Qr[i, 2] * (x[2] - s[2]))
-        w[i] = (Qr[i, 0] * (x[3] - sv[0]) + Qr[i, 1] * (x[4] - sv[1])
-                + Qr[i, 2] * (x[5] - sv[2]))
-    return d, w
-
-
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
             h: np.ndarray, H: np.ndarray) -> None:
     """Predicted measurement ``h`` (6,) and Jacobian ``H`` (6, n) at state ``x``, in place.
 
     Unused trailing components (SPHERICAL has 4) are set to zero. Columns of H beyond the
-    kinematic velocity block are zero (measurements do not see acceleration).
+    kinematic velocity block are zero (measurements do not see acceleration). Written with
+    scalars only: no allocation per call.
     """
-    d, w = _local(x, s, sv, Qr)
+    p0 = x[0] - s[0]
+    p1 = x[1] - s[1]
+    p2 = x[2] - s[2]
+    v0 = x[3] - sv[0]
+    v1 = x[4] - sv[1]
+    v2 = x[5] - sv[2]
+    d0 = Qr[0, 0] * p0 + Qr[0, 1] * p1 + Qr[0, 2] * p2      # d = Qr (p - s)
+    d1 = Qr[1, 0] * p0 + Qr[1, 1] * p1 + Qr[1, 2] * p2
+    d2 = Qr[2, 0] * p0 + Qr[2, 1] * p1 + Qr[2, 2] * p2
+    w0 = Qr[0, 0] * v0 + Qr[0, 1] * v1 + Qr[0, 2] * v2      # w = Qr (v - sv)
+    w1 = Qr[1, 0] * v0 + Qr[1, 1] * v1 + Qr[1, 2] * v2
+    w2 = Qr[2, 0] * v0 + Qr[2, 1] * v1 + Qr[2, 2] * v2
     H[:, :] = 0.0
-    h[:] = 0.0
     if model == CARTESIAN:
+        h[0] = d0
+        h[1] = d1
+        h[2] = d2
+        h[3] = w0
+        h[4] = w1
+        h[5] = w2
         for i in range(3):
-            h[i] = d[i]
-            h[3 + i] = w[i]
             for j in range(3):
                 H[i, j] = Qr[i, j]
                 H[3 + i, 3 + j] = Qr[i, j]
         return
     # SPHERICAL: Jacobians with respect to the local vectors d, w, then chained through Qr.
-    rho2 = d[0] * d[0] + d[1] * d[1]
-    r2 = rho2 + d[2] * d[2]
-    r = math.sqrt(r2)
-    r = max(r, 1e-9)
+    rho2 = d0 * d0 + d1 * d1
+    r = max(math.sqrt(rho2 + d2 * d2), 1e-9)
     r2 = r * r
-    rho = math.sqrt(rho2)
-    rho = max(rho, 1e-9 * r + 1e-12)
+    rho = max(math.sqrt(rho2), 1e-9 * r + 1e-12)
     rho2 = rho * rho
-    dw = d[0] * w[0] + d[1] * w[1] + d[2] * w[2]
+    dw = d0 * w0 + d1 * w1 + d2 * w2
     h[0] = r
-    h[1] = math.atan2(d[0], d[1])
-    h[2] = math.atan2(d[2], rho)
+    h[1] = math.atan2(d0, d1)
+    h[2] = math.atan2(d2, rho)
     h[3] = dw / r
-    jr = np.empty(3)
-    ja = np.empty(3)
-    je = np.empty(3)
-    jrd_d = np.empty(3)
-    for i in range(3):
-        jr[i] = d[i] / r                                  # dR/dd
-        jrd_d[i] = w[i] / r - dw * d[i] / (r2 * r)        # dRdot/dd
-    ja[0] = d[1] / rho2                                   # dA/dd
-    ja[1] = -d[0] / rho2
-    ja[2] = 0.0
-    je[0] = -d[0] * d[2] / (r2 * rho)                     # dE/dd
-    je[1] = -d[1] * d[2] / (r2 * rho)
-    je[2] = rho / r2
+    h[4] = 0.0
+    h[5] = 0.0
+    jr0 = d0 / r                                          # dR/dd
+    jr1 = d1 / r
+    jr2 = d2 / r
+    ja0 = d1 / rho2                                       # dA/dd
+    ja1 = -d0 / rho2
+    je0 = -d0 * d2 / (r2 * rho)                           # dE/dd
+    je1 = -d1 * d2 / (r2 * rho)
+    je2 = rho / r2
+    c = dw / (r2 * r)
+    jd0 = w0 / r - c * d0                                 # dRdot/dd
+    jd1 = w1 / r - c * d1
+    jd2 = w2 / r - c * d2
     for j in range(3):
-        a_r = 0.0
-        a_a = 0.0
-        a_e = 0.0
-        a_rd = 0.0
-        for i in range(3):
-            a_r += jr[i] * Qr[i, j]
-            a_a += ja[i] * Qr[i, j]
-            a_e += je[i] * Qr[i, j]
-            a_rd += jrd_d[i] * Qr[i, j]
+        q0 = Qr[0, j]
+        q1 = Qr[1, j]
+        q2 = Qr[2, j]
+        a_r = jr0 * q0 + jr1 * q1 + jr2 * q2
         H[0, j] = a_r
-        H[1, j] = a_a
-        H[2, j] = a_e
-        H[3, j] = a_rd
+        H[1, j] = ja0 * q0 + ja1 * q1
+        H[2, j] = je0 * q0 + je1 * q1 + je2 * q2
+        H[3, j] = jd0 * q0 + jd1 * q1 + jd2 * q2
         H[3, 3 + j] = a_r                                 # dRdot/dv = (d/R)^T Qr
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def innovation(model: int, z: np.ndarray, h: np.ndarray, out: np.ndarray) -> None:
     """Residual ``out = z - h`` (6,), azimuth wrapped to (-pi, pi] for SPHERICAL; NaN kept."""
     for i in range(z.shape[0]):

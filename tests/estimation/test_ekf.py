@@ -91,11 +91,13 @@ def test_gate_rejects_wild_points_and_carries_prediction():
     z[wild, 0] += rng.choice([-1, 1], 40) * rng.uniform(200, 500, 40)
     t = np.arange(len(truth)) * dt
     P0 = np.diag([100.0] * 3 + [400.0] * 3 + [25.0] * 3)
-    xf, Pf, nis, dof, acc, ll, resets = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
+    xf, Pf, nis, dof, rej, ll, resets = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
                                               reset_after=50)
-    assert not acc[wild].any()
+    # the wild range is rejected, the row's good angles are still used (component gating)
+    assert ((rej[wild] & 1) == 1).all()
+    assert ((rej[wild] & 0b110) == 0).mean() > 0.95
     clean = np.setdiff1d(np.arange(200, 2000), wild)
-    assert acc[clean].mean() > 0.995
+    assert (rej[clean] == 0).mean() > 0.995
     assert resets == 0
     err = np.linalg.norm(xf[200:, :3] - truth[200:, :3], axis=1)
     assert np.sqrt(np.mean(err ** 2)) < 10.0

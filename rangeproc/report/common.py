@@ -1,0 +1,340 @@
+"""Shared helpers of the PNG report: figure creation, atomic saving, decimation, time axis.
+
+Everything here is plotting plumbing with no knowledge of a particular figure. Arrays are
+NumPy; times are seconds on the range time scale unless a name says ``since t0``.
+"""
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import BoundaryNorm, ListedColormap
+from matplotlib.figure import Figure
+
+from rangeproc.results import SensorResiduals, TrackEstimate
+
+#: Resolution of every report PNG (dots per inch).
+DPI = 110
+#: Most points of one series drawn in a scatter (rejected points come on top of this).
+MAX_POINTS = 20_000
+#: matplotlib rc settings applied (via ``rc_context``) while the report is drawn.
+STYLE = {
+    "font.size": 9.0,
+    "axes.titlesize": 9.5,
+    "axes.labelsize": 9.0,
+    "legend.fontsize": 8.0,
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "grid.linewidth": 0.6,
+    "axes.formatter.useoffset": False,
+    "path.simplify": True,
+    "agg.path.chunksize": 20_000,
+}
+#: Colour of rejected (wild) points and of "no sensor" coverage.
+REJECT_COLOR = "#d62728"
+#: Colours per sensor kind (coverage rows, consistency panels).
+KIND_COLORS = {
+    "radar": "#1f77b4",
+    "theodolite": "#2ca02c",
+    "gps": "#ff7f0e",
+    "mistram": "#9467bd",
+    "ins": "#7f7f7f",
+}
+#: Qualitative colours for targets and groups (stations).
+CYCLE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+         "#bcbd22", "#7f7f7f", "#393b79")
+
+
+@dataclass(frozen=True, slots=True)
+class SensorView:
+    """All residual rows of one sensor (merged over targets), sorted by time.
+
+    time: (N,) s; residual, sigma: (N, m) SI (rad for angles), NaN = not measured;
+    rejected_comp: (N, m) bool, component rejected by the gate; rejected: (N,) bool, any
+    component of the row rejected; nis: (N,) float; group: (N,) int64 index into
+    ``group_names`` (MISTRAM station and/or target, a single group "" otherwise).
+    """
+
+    sensor_id: str
+    kind: str
+    targets: tuple[str, ...]
+    components: tuple[str, ...]
+    units: tuple[str, ...]
+    time: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    rejected_comp: np.ndarray
+    rejected: np.ndarray
+    nis: np.ndarray
+    group: np.ndarray
+    group_names: tuple[str, ...]
+
+    @property
+    def used_comp(self) -> np.ndarray:
+        """(N, m) bool: component measured and not rejected."""
+        return np.isfinite(self.residual) & ~self.rejected_comp
+
+    @property
+    def used(self) -> np.ndarray:
+        """(N,) bool: at least one component measured and used."""
+        return self.used_comp.any(axis=1)
+
+
+def _as_2d(a: np.ndarray, n: int, m: int, what: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim == 1 and m == 1:
+        arr = arr[:, None]
+    if arr.shape != (n, m):
+        raise ValueError(f"SensorResiduals.{what}: shape {arr.shape}, expected {(n, m)}")
+    return arr
+
+
+def merge_sensors(residuals: Sequence[SensorResiduals]) -> list[SensorView]:
+    """Merge the residual sets of each sensor id (one per target) into one time-sorted view.
+
+    Components are the union over the sets (first-seen order); a component a set lacks is NaN.
+    Order of the returned views = first appearance of each sensor id.
+    """
+    by_id: dict[str, list[SensorResiduals]] = {}
+    for r in residuals:
+        by_id.setdefault(r.sensor_id, []).append(r)
+    views = []
+    for sid, parts in by_id.items():
+        comps: list[str] = []
+        units: list[str] = []
+        for p in parts:
+            for c, u in zip(p.components, p.units):
+                if c not in comps:
+                    comps.append(c)
+                    units.append(u)
+        targets = tuple(dict.fromkeys(p.target_id for p in parts))
+        names: list[str] = []
+        cols_t, cols_r, cols_s, cols_j, cols_n, cols_g = [], [], [], [], [], []
+        for p in parts:
+            t = np.asarray(p.time, dtype=float).reshape(-1)
+            n, m = t.size, len(comps)
+            res = np.full((n, m), np.nan)
+            sig = np.full((n, m), np.nan)
+            idx = [comps.index(c) for c in p.components]
+            res[:, idx] = _as_2d(p.residual, n, len(p.components), "residual")
+            sig[:, idx] = _as_2d(p.sigma, n, len(p.components), "sigma")
+            prefix = p.target_id if len(targets) > 1 else ""
+            if p.station is not None:
+                st = np.asarray(p.station, dtype=np.int64).reshape(-1)
+                uniq, inv = np.unique(st, return_inverse=True)
+                labels = [f"{prefix} stn {k}".strip() for k in uniq]
+            else:
+                inv = np.zeros(n, dtype=np.int64)
+                labels = [prefix]
+            gmap = np.array([_index_of(names, lab) for lab in labels], dtype=np.int64)
+            cols_t.append(t)
+            cols_r.append(res)
+            cols_s.append(sig)
+            rej = np.zeros((n, m), dtype=bool)
+            pr = np.asarray(p.rejected, dtype=bool)
+            if pr.ndim == 1:                      # row-level flag: every measured component
+                rej[:, idx] = pr.reshape(-1, 1) & np.isfinite(res[:, idx])
+            else:
+                rej[:, idx] = pr.reshape(n, len(p.components))
+            cols_j.append(rej)
+            cols_n.append(np.asarray(p.nis, dtype=float).reshape(-1))
+            cols_g.append(gmap[inv] if gmap.size else np.zeros(0, dtype=np.int64))
+        t = np.concatenate(cols_t)
+        order = _time_order(t)
+        views.append(SensorView(
+            sensor_id=sid, kind=parts[0].kind, targets=targets, components=tuple(comps),
+            units=tuple(units), time=t[order], residual=np.concatenate(cols_r)[order],
+            sigma=np.concatenate(cols_s)[order], rejected_comp=np.concatenate(cols_j)[order],
+            rejected=np.concatenate(cols_j)[order].any(axis=1),
+            nis=np.concatenate(cols_n)[order], group=np.concatenate(cols_g)[order],
+            group_names=tuple(names) if names else ("",)))
+    return views
+
+
+def _index_of(names: list[str], label: str) -> int:
+    if label not in names:
+        names.append(label)
+    return names.index(label)
+
+
+def _time_order(t: np.ndarray) -> np.ndarray | slice:
+    """Stable time order of ``t`` (a no-op slice when already sorted; NaN times go last)."""
+    if t.size < 2 or bool(np.all(t[1:] >= t[:-1])):
+        return slice(None)
+    return np.argsort(t, kind="stable")
+
+
+def time_origin(tracks: Sequence[TrackEstimate], views: Sequence[SensorView]) -> float:
+    """t0 (s, range time scale): the earliest finite epoch of any track or residual row."""
+    firsts = [float(np.nanmin(a)) for a in [tr.time for tr in tracks] + [v.time for v in views]
+              if np.size(a) and np.isfinite(a).any()]
+    return min(firsts) if firsts else 0.0
+
+
+def time_label(t0: float) -> str:
+    """x-axis label for times relative to ``t0`` (s)."""
+    return "time since first epoch t0 [s]"
+
+
+def t0_note(t0: float) -> str:
+    """One-line footnote naming t0, with the UTC date when t0 looks like a Unix time."""
+    note = f"t0 = {t0:.3f} s (range time scale)"
+    if 1.0e9 < t0 < 4.1e9:
+        utc = datetime.fromtimestamp(t0, tz=timezone.utc)
+        note += f" = {utc.strftime('%Y-%m-%d %H:%M:%S')} UTC if Unix time"
+    return note
+
+
+def new_figure(width_in: float, height_in: float) -> Figure:
+    """A pyplot-free Agg figure of the given size (inches)."""
+    fig = Figure(figsize=(width_in, height_in), dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def save_figure(fig: Figure, path: Path) -> Path:
+    """Write ``fig`` as PNG to ``path`` atomically (temp file in the same folder, then replace).
+
+    The figure is cleared afterwards to free its memory. No temp file survives an exception.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png.tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=DPI, metadata={"Software": "rangeproc"})
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        fig.clear()
+    return path
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def safe_name(name: str) -> str:
+    """A file-name-safe form of an id: runs of other characters become ``_`` ('S 1/a' -> 'S_1_a')."""
+    out = _UNSAFE.sub("_", name).strip("._")
+    return out or "unnamed"
+
+
+def decimate_indices(y: np.ndarray, *, max_points: int = MAX_POINTS,
+                     keep: np.ndarray | None = None) -> np.ndarray:
+    """Indices (ascending) of the points of a time-ordered series worth drawing.
+
+    y: (N,) values in time order. keep: (N,) bool, points always returned when y is finite
+    (rejected points: every one is drawn). Of the other finite points at most ``max_points``
+    are returned: an even stride through the series (keeps the density) plus the minimum and
+    maximum of equal-count time buckets (keeps the envelope, so spikes are never thinned away).
+    Non-finite y are never returned.
+    """
+    y = np.asarray(y, dtype=float).reshape(-1)
+    finite = np.isfinite(y)
+    keep_mask = np.zeros(y.size, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    always = np.flatnonzero(finite & keep_mask)
+    cand = np.flatnonzero(finite & ~keep_mask)
+    m = cand.size
+    if m > max_points:
+        yc = y[cand]
+        nb = max(1, max_points // 8)
+        k = m // nb
+        blocks = yc[: nb * k].reshape(nb, k)
+        base = np.arange(nb) * k
+        ext = np.concatenate([base + blocks.argmin(axis=1), base + blocks.argmax(axis=1)])
+        stride = np.linspace(0, m - 1, max_points - 2 * nb).astype(np.int64)
+        cand = cand[np.unique(np.concatenate([ext, stride]))]
+    return np.union1d(cand, always).astype(np.int64)
+
+
+def stride_indices(n: int, max_points: int) -> np.ndarray:
+    """Evenly spaced indices 0..n-1 (first and last included), at most ``max_points``."""
+    if n <= max_points:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_points).astype(np.int64))
+
+
+def break_gaps(t: np.ndarray, *ys: np.ndarray, factor: float = 3.0) -> tuple[np.ndarray, ...]:
+    """Insert NaN between samples farther apart than ``factor`` x the median spacing.
+
+    t: (K,) ascending; ys: (K, ...) arrays. Returns (t', *ys') with NaN rows at gaps so that
+    lines are not drawn across data gaps.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 3:
+        return (t, *ys)
+    dt = np.diff(t)
+    pos = dt[dt > 0]
+    if pos.size == 0:
+        return (t, *ys)
+    gaps = np.flatnonzero(dt > factor * np.median(pos)) + 1
+    if gaps.size == 0:
+        return (t, *ys)
+    out = [np.insert(t, gaps, np.nan)]
+    for y in ys:
+        y = np.asarray(y, dtype=float)
+        out.append(np.insert(y, gaps, np.nan, axis=0))
+    return tuple(out)
+
+
+def robust_spread(x: np.ndarray, *, max_samples: int = 200_000) -> float:
+    """1.4826 x median absolute deviation of the finite values (an evenly strided subsample)."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size > max_samples:
+        x = x[stride_indices(x.size, max_samples)]
+    if x.size == 0:
+        return float("nan")
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def display_unit(unit: str) -> tuple[float, str]:
+    """(scale, label) to show an SI quantity: radians as mrad, everything else unchanged."""
+    table = {"rad": (1.0e3, "mrad"), "rad/s": (1.0e3, "mrad/s"), "m": (1.0, "m"),
+             "m/s": (1.0, "m/s"), "m/s^2": (1.0, "m/s²")}
+    return table.get(unit, (1.0, unit))
+
+
+def n_sensors_colormap(n_max: int) -> tuple[ListedColormap, BoundaryNorm]:
+    """Discrete colour map for n_sensors 0..n_max: 0 (coasting, no data) red, then viridis."""
+    import matplotlib
+
+    n_max = max(int(n_max), 1)
+    base = matplotlib.colormaps["viridis"]
+    colors = [REJECT_COLOR] + [base(x) for x in np.linspace(0.05, 0.95, n_max)]
+    cmap = ListedColormap(colors, name="n_sensors")
+    norm = BoundaryNorm(np.arange(-0.5, n_max + 1.0), cmap.N)
+    return cmap, norm
+
+
+def binned_extreme(t: np.ndarray, v: np.ndarray, edges: np.ndarray,
+                   how: str = "max") -> np.ndarray:
+    """Per-bin max (or min) of v over time bins; NaN where a bin has no finite value.
+
+    t: (N,) ascending; v: (N,); edges: (B+1,) ascending bin edges. Returns (B,).
+    """
+    nb = edges.size - 1
+    out = np.full(nb, np.nan)
+    ok = np.isfinite(v) & (t >= edges[0]) & (t <= edges[-1])
+    t, v = t[ok], v[ok]
+    if t.size == 0 or nb < 1:
+        return out
+    starts = np.searchsorted(t, edges[:-1], side="left")
+    stops = np.searchsorted(t, edges[1:], side="left")
+    stops[-1] = np.searchsorted(t, edges[-1], side="right")
+    nonempty = stops > starts
+    ufunc = np.fmax if how == "max" else np.fmin
+    if nonempty.any():
+        # bins are contiguous and empty ones hold no points, so each reduceat slice is one bin
+        out[nonempty] = ufunc.reduceat(v, starts[nonempty])
+    return out

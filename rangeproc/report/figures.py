@@ -1,0 +1,77 @@
+"""Write the PNG report: trajectory, per-sensor residuals, consistency and coverage figures.
+
+``write_report`` is the one entry point. Drawing uses matplotlib's object-oriented API on the
+Agg canvas (no pyplot, no global backend switch); style settings are applied in an
+``rc_context`` and restored afterwards. Every PNG is written atomically.
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+import matplotlib
+import numpy as np
+
+from rangeproc.report.common import STYLE, merge_sensors, safe_name, save_figure, time_origin
+from rangeproc.report.consistency import plot_consistency
+from rangeproc.report.residuals import plot_residuals
+from rangeproc.report.timeline import plot_coverage
+from rangeproc.report.trajectory import plot_trajectory
+from rangeproc.results import SensorResiduals, TrackEstimate
+
+log = logging.getLogger(__name__)
+
+
+def residual_file_names(sensor_ids: Sequence[str]) -> list[str]:
+    """``residuals_<id>.png`` per sensor id, sanitised and made unique (``_2``, ``_3`` ...)."""
+    names: list[str] = []
+    seen: set[str] = set()
+    for sid in sensor_ids:
+        stem = f"residuals_{safe_name(sid)}"
+        cand, k = stem, 1
+        while cand.lower() in seen:
+            k += 1
+            cand = f"{stem}_{k}"
+        seen.add(cand.lower())
+        names.append(f"{cand}.png")
+    return names
+
+
+def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
+                 residuals: Sequence[SensorResiduals], *,
+                 sites: Mapping[str, np.ndarray] | None = None,
+                 progress: Callable[[str], None] | None = None) -> list[Path]:
+    """Draw and write the report figures into ``report_dir`` (created if missing).
+
+    tracks: smoothed trajectories (range ENU metres, s); residuals: post-fit residual sets
+    (several sets of one sensor id, e.g. one per target, are drawn together); sites: sensor /
+    station id -> (3,) fixed position or (N, 3) platform track in range ENU metres, drawn on
+    the map; progress: called with a short message before each figure.
+
+    Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor, ``consistency.png`` and
+    ``coverage.png``; returns their paths in that order. Each file is written atomically (temp
+    file + ``os.replace``), so an exception leaves no partial or temp file behind; files
+    finished before the exception stay.
+    """
+    report_dir = Path(report_dir)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    say = progress or (lambda msg: None)
+    views = merge_sensors(residuals)
+    t0 = time_origin(tracks, views)
+    written: list[Path] = []
+
+    def emit(name: str, draw: Callable[[], object]) -> None:
+        say(f"report: {name}")
+        fig = draw()
+        written.append(save_figure(fig, report_dir / name))  # type: ignore[arg-type]
+        log.debug("wrote %s", report_dir / name)
+
+    with matplotlib.rc_context(STYLE):
+        emit("trajectory.png", lambda: plot_trajectory(tracks, sites, t0))
+        for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
+            emit(name, lambda v=view: plot_residuals(v, t0))
+        emit("consistency.png", lambda: plot_consistency(views, t0))
+        emit("coverage.png", lambda: plot_coverage(views, tracks, t0))
+    log.info("report: %d figures in %s", len(written), report_dir)
+    return written

@@ -1,0 +1,185 @@
+"""``residuals_<sensor>.png``: post-fit residuals per measured component vs time.
+
+Used points are small dots (coloured per MISTRAM station / target when there are several),
+rejected points red crosses, the +-3 sigma envelope of the estimator's noise a shaded band.
+The y-range is chosen from the used residuals (robust spread), so one wild point cannot squash
+the plot; points beyond it are drawn clipped at the edge as triangles.
+"""
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from rangeproc.report.common import (CYCLE, REJECT_COLOR, SensorView, binned_extreme,
+                                     decimate_indices, display_unit, new_figure, robust_spread,
+                                     t0_note, time_label)
+
+#: Half-height of the y-range in robust spreads (1.4826 MAD) of the used residuals.
+SPREAD_FACTOR = 6.0
+#: Time bins of the drawn +-3 sigma envelope (per-bin maximum).
+ENVELOPE_BINS = 800
+_BAND_COLOR = "#9ecae1"
+_EDGE = 0.97  # clipped points sit at this fraction of the half-height
+
+
+def plot_residuals(view: SensorView, t0: float) -> Figure:
+    """Draw the residual figure of one sensor (times relative to t0, s)."""
+    finite = np.isfinite(view.residual)
+    measured = [j for j in range(len(view.components)) if finite[:, j].any()]
+    missing = [c for j, c in enumerate(view.components) if j not in measured]
+    npan = max(len(measured), 1)
+    fig = new_figure(13.0, max(3.6, 1.35 + 2.05 * npan))
+    top = 1.0 - 1.05 / fig.get_figheight()
+    axes = fig.subplots(npan, 1, sharex=True, squeeze=False)[:, 0]
+    fig.subplots_adjust(left=0.085, right=0.975, top=top, bottom=0.55 / fig.get_figheight()
+                        + 0.03, hspace=0.12)
+    used = view.used
+    rej = view.rejected
+    n = view.time.size
+    x = view.time - t0
+    rms_parts = []
+    for ax, j in zip(axes, measured):
+        scale, unit = display_unit(view.units[j])
+        r = view.residual[:, j] * scale
+        s3 = 3.0 * view.sigma[:, j] * scale
+        rms = _draw_component(ax, view, x, r, s3, view.used_comp[:, j],
+                              view.rejected_comp[:, j], unit)
+        ax.set_ylabel(f"{view.components[j]} [{unit}]")
+        rms_parts.append(f"{view.components[j]} {_fmt(rms)} {unit}")
+    if not measured:
+        axes[0].text(0.5, 0.5, "no measurements" if n == 0 else "no finite residuals",
+                     transform=axes[0].transAxes, ha="center", va="center", fontsize=12,
+                     color="0.4")
+        axes[0].set_yticks([])
+    axes[-1].set_xlabel(time_label(t0))
+    targets = ", ".join(view.targets)
+    n_used, n_rej = int(used.sum()), int(rej.sum())
+    pct = 100.0 * n_rej / n if n else 0.0
+    fig.suptitle(f"Residuals (measured - smoothed): {view.sensor_id}  ({view.kind}, target "
+                 f"{targets})", fontsize=12, fontweight="bold", y=1.0 - 0.12 / fig.get_figheight(),
+                 va="top")
+    line2 = f"used {n_used:,}   rejected {n_rej:,} ({pct:.2f} %)"
+    if rms_parts:
+        line2 += "   |   RMS of used: " + ",  ".join(rms_parts)
+    if missing:
+        line2 += "   |   not measured: " + ", ".join(missing)
+    fig.text(0.5, 1.0 - 0.45 / fig.get_figheight(), line2, ha="center", va="top", fontsize=9)
+    _legend(fig, view, used, rej, top)
+    fig.text(0.995, 0.005, t0_note(t0), ha="right", va="bottom", fontsize=7, color="0.35")
+    return fig
+
+
+def _fmt(v: float) -> str:
+    if not np.isfinite(v):
+        return "n/a"
+    return f"{v:.3g}"
+
+
+def _limit(r_used: np.ndarray, r_rej: np.ndarray, s3_used: np.ndarray) -> float:
+    """Symmetric half-height of the y-range (display units) from the used residuals."""
+    base = r_used if r_used.size else r_rej
+    spread = robust_spread(base)
+    centre = float(np.median(base)) if base.size else 0.0
+    half = abs(centre) + SPREAD_FACTOR * spread
+    s3 = s3_used[np.isfinite(s3_used) & (s3_used > 0)]
+    if s3.size:
+        band = 1.15 * float(np.median(s3))
+        cap = abs(centre) + 5.0 * SPREAD_FACTOR * spread if spread > 0 else band
+        half = max(half, min(band, cap))
+    if not (np.isfinite(half) and half > 0):
+        mag = np.abs(base[np.isfinite(base)]) if base.size else np.zeros(0)
+        half = 1.2 * float(mag.max()) if mag.size and mag.max() > 0 else 1.0
+    return half
+
+
+def _draw_component(ax: Axes, view: SensorView, x: np.ndarray, r: np.ndarray, s3: np.ndarray,
+                    used: np.ndarray, rej: np.ndarray, unit: str) -> float:
+    """One panel; returns the RMS of the used residuals (display units)."""
+    fin = np.isfinite(r)
+    u_ok = used & fin
+    r_ok = rej & fin
+    ru = r[u_ok]
+    half = _limit(ru, r[r_ok], s3[u_ok])
+    _envelope(ax, x, s3, fin)
+    ax.axhline(0.0, color="0.3", lw=0.7, zorder=1.5)
+    # used points: decimated for drawing, coloured per group
+    idx = decimate_indices(np.where(u_ok, r, np.nan))
+    yy = np.clip(r[idx], -half * _EDGE, half * _EDGE)
+    off = np.abs(r[idx]) > half * _EDGE
+    for g in np.unique(view.group[idx]) if idx.size else []:
+        sel = view.group[idx] == g
+        col = CYCLE[int(g) % len(CYCLE)] if len(view.group_names) > 1 else CYCLE[0]
+        ax.plot(x[idx][sel & ~off], yy[sel & ~off], ls="none", marker="o", ms=1.6, mew=0,
+                color=col, zorder=2, rasterized=False)
+        _clipped(ax, x[idx][sel & off], r[idx][sel & off], half, col, ms=3.5)
+    # rejected points: every one is drawn
+    rx, ry = x[r_ok], r[r_ok]
+    inside = np.abs(ry) <= half * _EDGE
+    ax.plot(rx[inside], ry[inside], ls="none", marker="x", ms=4.0, mew=0.9, color=REJECT_COLOR,
+            zorder=3)
+    _clipped(ax, rx[~inside], ry[~inside], half, REJECT_COLOR, ms=5.0)
+    ax.set_ylim(-half, half)
+    rms = float(np.sqrt(np.mean(ru**2))) if ru.size else float("nan")
+    mean = float(np.mean(ru)) if ru.size else float("nan")
+    sig = float(np.nanmedian(s3[u_ok]) / 3.0) if u_ok.any() and np.isfinite(s3[u_ok]).any() \
+        else float("nan")
+    n_off = int((~inside).sum())
+    txt = f"mean {mean:+.3g}   RMS {_fmt(rms)}   median σ {_fmt(sig)} {unit}"
+    if n_off:
+        txt += f"   |   {n_off:,} rejected off-scale"
+    ax.text(0.005, 0.97, txt, transform=ax.transAxes, ha="left", va="top", fontsize=8,
+            zorder=5, bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.85))
+    return rms
+
+
+def _envelope(ax: Axes, x: np.ndarray, s3: np.ndarray, fin: np.ndarray) -> None:
+    """+-3 sigma band: per-time-bin maximum of 3 sigma, gaps left open."""
+    ok = fin & np.isfinite(s3) & np.isfinite(x)
+    if not ok.any():
+        return
+    xs, vs = x[ok], s3[ok]
+    lo, hi = float(xs[0]), float(xs[-1])
+    if hi <= lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    edges = np.linspace(lo, hi, ENVELOPE_BINS + 1)
+    band = binned_extreme(xs, vs, edges, "max")
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    ax.fill_between(centres, -band, band, step="mid", color=_BAND_COLOR, alpha=0.45, lw=0,
+                    zorder=1)
+    for sgn in (-1.0, 1.0):
+        ax.step(centres, sgn * band, where="mid", color="#3182bd", lw=0.6, zorder=1.2)
+
+
+def _clipped(ax: Axes, x: np.ndarray, y: np.ndarray, half: float, color: str,
+             ms: float) -> None:
+    """Points beyond +-half drawn at the edge: triangles pointing the way they went off."""
+    for sgn, mk in ((1.0, "^"), (-1.0, "v")):
+        sel = np.sign(y) == sgn
+        if sel.any():
+            ax.plot(x[sel], np.full(int(sel.sum()), sgn * half * _EDGE), ls="none", marker=mk,
+                    ms=ms, color=color, mec="k" if color == REJECT_COLOR else color, mew=0.4,
+                    zorder=3.5, clip_on=False)
+
+
+def _legend(fig: Figure, view: SensorView, used: np.ndarray, rej: np.ndarray,
+            top: float) -> None:
+    handles: list = []
+    if len(view.group_names) > 1:
+        for g, name in enumerate(view.group_names):
+            cnt = int((used & (view.group == g)).sum())
+            handles.append(Line2D([], [], ls="none", marker="o", ms=5, mew=0,
+                                  color=CYCLE[g % len(CYCLE)], label=f"used {name} ({cnt:,})"))
+    else:
+        handles.append(Line2D([], [], ls="none", marker="o", ms=5, mew=0, color=CYCLE[0],
+                              label=f"used ({int(used.sum()):,})"))
+    handles.append(Line2D([], [], ls="none", marker="x", ms=6, mew=1.2, color=REJECT_COLOR,
+                          label=f"rejected ({int(rej.sum()):,})"))
+    handles.append(Line2D([], [], ls="none", marker="^", ms=6, color="0.5", mec="k", mew=0.4,
+                          label="off-scale (clipped at edge)"))
+    handles.append(Patch(fc=_BAND_COLOR, ec="#3182bd", alpha=0.8,
+                         label="±3σ (noise used by the estimator)"))
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, top), ncol=len(handles),
+               frameon=False, fontsize=8, handletextpad=0.3, columnspacing=1.5)

@@ -1,0 +1,87 @@
+"""Shared fixtures for the CLI tests: copies of the bundled sample scenario and one pipeline run.
+
+``sample_data/`` and ``configs/`` are never written: every test works on copies in a temporary
+folder. One full run of the 120 s sample takes a few seconds, so it is done once per session
+(``sample_run``) and shared by the read-only checks.
+"""
+from __future__ import annotations
+
+import shutil
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import pytest
+from click.testing import CliRunner, Result
+
+from rangeproc.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+SAMPLE_DATA = REPO / "sample_data"
+SAMPLE_CONFIG = "scenario.toml"  # inside a copy of sample_data; output.dir = "out"
+
+
+def describe(result: Result) -> str:
+    """Exit code, stdout, stderr and any escaped traceback of a CliRunner result (for asserts)."""
+    text = (f"exit code {result.exit_code}\n--- stdout ---\n{result.stdout}"
+            f"--- stderr ---\n{result.stderr}")
+    if result.exc_info is not None and not isinstance(result.exception, SystemExit):
+        text += "--- exception ---\n" + "".join(traceback.format_exception(*result.exc_info))
+    return text
+
+
+def invoke(args: list[str]) -> Result:
+    """Run the ``rangeproc`` click group in-process with ``args`` (stdout/stderr kept apart)."""
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def copy_sample(dest: Path) -> Path:
+    """Copy the bundled sample_data folder (sensor files, scenario.toml, truth.csv) to ``dest``;
+    returns ``dest``. Any ``out`` folder in the source is not copied."""
+    shutil.copytree(SAMPLE_DATA, dest, ignore=shutil.ignore_patterns("out", ".*"))
+    return dest
+
+
+@dataclass(frozen=True)
+class SampleRun:
+    """The session's one ``rangeproc run --quiet`` of the copied sample scenario."""
+
+    folder: Path        # the copied sample_data (inputs; not to be modified)
+    config: Path        # folder / scenario.toml
+    out_dir: Path       # folder / out
+    result: Result      # the CliRunner result
+
+
+@pytest.fixture(scope="session")
+def sample_copy(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A pristine copy of sample_data shared by the session (read-only for tests)."""
+    return copy_sample(tmp_path_factory.mktemp("shared") / "sample_data")
+
+
+@pytest.fixture(scope="session")
+def sample_run(sample_copy: Path) -> SampleRun:
+    """``rangeproc run --quiet scenario.toml`` on the shared copy, run once per session."""
+    config = sample_copy / SAMPLE_CONFIG
+    result = invoke(["run", "--quiet", config])
+    assert result.exit_code == 0, describe(result)
+    return SampleRun(folder=sample_copy, config=config, out_dir=sample_copy / "out",
+                     result=result)
+
+
+@pytest.fixture
+def scenario(tmp_path: Path) -> Path:
+    """A fresh, mutable copy of sample_data for one test; returns the folder."""
+    return copy_sample(tmp_path / "scenario")
+
+
+@pytest.fixture
+def cli() -> Callable[[list[str]], Result]:
+    """The in-process CLI runner: ``cli(["run", config])`` -> click Result."""
+    return invoke
+
+
+@pytest.fixture
+def explain() -> Callable[[Result], str]:
+    """``explain(result)``: exit code, stdout, stderr and traceback text for assert messages."""
+    return describe
