@@ -8,10 +8,13 @@ from __future__ import annotations
 import logging
 import os
 import platform as _platform
+import shutil
+import tempfile
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -143,22 +146,31 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                "n_rows": len(logs[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
                "n_rejected": 0, "n_no_platform_geometry": 0} for s in cfg.sensors}
     fused: list[tuple[str, FusionResult]] = []
+    n_no_platform = {sid: a.n_no_platform for sid, a in rows.items()}
+    sites = _sites(cfg, frame, rows)
+    by_target = {tgt.id: [sid for sid in rows
+                          if target_of(cfg.sensors[index[sid]], cfg) == tgt.id]
+                 for tgt in cfg.targets}
     with clock.stage("fuse", len(cfg.targets) * (1 + settings.noise_passes)) as tick:
         for tgt in cfg.targets:
-            parts = [(index[sid], a.rows) for sid, a in rows.items()
-                     if target_of(cfg.sensors[index[sid]], cfg) == tgt.id and len(a.rows.t)]
+            parts = [(index[sid], rows[sid].rows) for sid in by_target[tgt.id]
+                     if len(rows[sid].rows.t)]
+            for sid in by_target[tgt.id]:           # the merged batch holds the data now
+                del rows[sid]
             if not parts:
                 log.warning("target %s: no measurements", tgt.id)
                 tick(1 + settings.noise_passes, tgt.id)
                 continue
             batch = merge(parts, sensor_ids)
+            del parts
             fused.append((tgt.id, fuse_target(
                 batch, cfg.output.rate_hz, settings,
                 tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"))))
+            del batch
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz)
         tracks.append(track)
-        for sid, a in rows.items():
+        for sid in by_target[tid]:
             i = index[sid]
             if not (result.batch.sensor == i).any():
                 continue
@@ -166,18 +178,21 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             residuals.append(r)
             ss = sensor_summary[sid]
             sel = result.batch.sensor == i
-            ss["n_used"] += int((result.used[sel].any(axis=1)).sum())
-            ss["n_rejected"] += int(r.rejected.any(axis=1).sum())
+            used_rows = result.used[sel].any(axis=1)
+            measured_rows = result.dof[sel] > 0
+            ss["n_used"] += int(used_rows.sum())
+            ss["n_rejected"] += int((measured_rows & ~used_rows).sum())
+            ss["n_partly_rejected"] = int((used_rows & r.rejected.any(axis=1)).sum())
             ss["n_components_rejected"] = {
                 name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
-            ss["n_no_platform_geometry"] = a.n_no_platform
+            ss["n_no_platform_geometry"] = n_no_platform[sid]
             ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
             ss["target"] = tid
         t_used = result.batch.t[result.used.any(axis=1)]
         target_summary[tid] = {
             "t_start": float(track.time[0]) if len(track.time) else None,
             "t_end": float(track.time[-1]) if len(track.time) else None,
-            "n_epochs": int(len(track.time)),
+            "n_epochs": len(track.time),
             "gaps": _gaps(t_used, 1.0),
             "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
                                 "p95": float(np.percentile(result.q, 95)),
@@ -186,26 +201,51 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
     out_dir = make_output_dir(cfg)
-    with clock.stage("write"):
-        written = [write_parquet(fused_table(tracks), out_dir / "fused.parquet")]
-    with clock.stage("report", 3 + len(residuals)) as tick:
-        written += write_report(out_dir / "report", tracks, residuals,
-                                sites=_sites(cfg, frame, rows),
-                                progress=lambda name: tick(1, name))
-    summary = {
-        "rangeproc_version": rangeproc.__version__,
-        "python": _platform.python_version(), "numpy": np.__version__,
-        "config": {"file": str(cfg.path), "sha256": file_sha256(cfg.path)},
-        "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
-                   for s in cfg.sensors},
-        "sensors": sensor_summary, "targets": target_summary,
-        "elapsed_s": time.perf_counter() - started,
-        "stage_seconds": dict(clock.seconds),
-    }
-    with clock.stage("write"):
-        written.append(write_json(summary, out_dir / "summary.json"))
-    return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary,
-                     tuple(Path(p) for p in written), dict(clock.seconds))
+    with staged_outputs(out_dir) as stage:
+        with clock.stage("write"):
+            write_parquet(fused_table(tracks), stage / "fused.parquet")
+        with clock.stage("report", 3 + len(residuals)) as tick:
+            figures = write_report(stage / "report", tracks, residuals,
+                                   sites=sites,
+                                   progress=lambda name: tick(1, name))
+        summary = {
+            "rangeproc_version": rangeproc.__version__,
+            "python": _platform.python_version(), "numpy": np.__version__,
+            "config": {"file": str(cfg.path), "sha256": file_sha256(cfg.path)},
+            "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
+                       for s in cfg.sensors},
+            "sensors": sensor_summary, "targets": target_summary,
+            "elapsed_s": time.perf_counter() - started,
+            "stage_seconds": dict(clock.seconds),
+        }
+        with clock.stage("write"):
+            write_json(summary, stage / "summary.json")
+    written = [out_dir / "fused.parquet", *(out_dir / "report" / f.name for f in figures),
+               out_dir / "summary.json"]
+    return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary, tuple(written),
+                     dict(clock.seconds))
+
+
+@contextmanager
+def staged_outputs(out_dir: Path) -> Iterator[Path]:
+    """Yield a hidden staging folder inside ``out_dir``; publish its contents on success.
+
+    Every output of a run is first written into the staging folder; only when all of them are
+    complete are they moved into place (``report/`` swapped as a whole, ``fused.parquet``, then
+    ``summary.json`` last, each by an atomic rename). A run that fails at any stage therefore
+    leaves the previous run's outputs untouched and no partial or mixed set behind.
+    """
+    stage = Path(tempfile.mkdtemp(prefix=".rangeproc-staging-", dir=out_dir))
+    try:
+        yield stage
+        old = stage / ".old-report"
+        if (out_dir / "report").exists():
+            os.replace(out_dir / "report", old)
+        os.replace(stage / "report", out_dir / "report")
+        os.replace(stage / "fused.parquet", out_dir / "fused.parquet")
+        os.replace(stage / "summary.json", out_dir / "summary.json")
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def check_output_dir(cfg: Config) -> None:
@@ -238,7 +278,8 @@ def _sites(cfg: Config, frame: RangeFrame, rows: dict[str, Assembled]) -> dict[s
         if s.site is not None:
             sites[s.id] = frame.site(s.site)[0].reshape(3)
         elif s.platform is not None and s.id in rows and len(rows[s.id].rows.t):
-            sites[s.id] = rows[s.id].rows.s
+            track = rows[s.id].rows.s                  # platform sensor track, decimated
+            sites[s.id] = track[::max(1, len(track) // 2000)].copy()
         for st in s.stations:
             sites[st.id] = frame.site(st.site)[0].reshape(3)
     return sites

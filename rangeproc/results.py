@@ -39,9 +39,9 @@ class SensorResiduals:
     time: (N,) s; residual: (N, m) measured minus smoothed prediction in SI units, angles wrapped
     to (-pi, pi], NaN where the component was not measured; sigma: (N, m) the 1-sigma noise the
     estimator used for each component (after noise adaptation); rejected: (N, m) bool, True
-    where the gate rejected that component as a wild point (the rest of the row may be used); nis: (N,) float filter innovation
-    chi-square of the row (NaN when not computed); target_id: the target the rows belong to;
-    station: (N,) int64 MISTRAM station index or None.
+    where the gate rejected that component as a wild point (the rest of the row may be used);
+    nis: (N,) float filter innovation chi-square of the row (NaN when not computed);
+    target_id: the target the rows belong to; station: (N,) int64 MISTRAM station index or None.
     """
 
     sensor_id: str

@@ -220,6 +220,8 @@ def test_summary_sensors(summary, sample_run):
         # two counts need not add up to at most n_read
         assert 0 < ss["n_used"] <= ss["n_read"]
         assert 0 <= ss["n_rejected"] <= ss["n_read"]
+        # disjoint row counts: used (some component used) + wholly rejected <= rows with data
+        assert ss["n_used"] + ss["n_rejected"] <= ss["n_rows"]
         if s["kind"] == "ins":
             continue
         assert ss["n_used"] >= 0.95 * ss["n_read"], s["id"]  # a few wild points at most
@@ -228,7 +230,9 @@ def test_summary_sensors(summary, sample_run):
             assert est["estimated"] is not None and est["estimated"] > 0, (s["id"], comp)
             assert est["apriori"] is not None and est["apriori"] > 0, (s["id"], comp)
     # the simulator puts wild points into the radar and theodolite logs
-    assert summary["sensors"]["R1"]["n_rejected"] > 0
+    r1 = summary["sensors"]["R1"]
+    assert r1["n_rejected"] + r1["n_partly_rejected"] > 0
+    assert sum(r1["n_components_rejected"].values()) > 0
 
 
 def test_summary_targets(summary, fused):

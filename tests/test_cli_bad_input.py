@@ -387,7 +387,8 @@ def assert_complete_pngs(folder: Path) -> list[str]:
 
 
 def test_report_failure_between_figures(cli, explain, scenario, monkeypatch):
-    """A failure after fused.parquet and two figures: those stay complete, nothing partial."""
+    """A failure after fused.parquet and two figures were staged: nothing is published (the
+    outputs of a run are moved into place only when all of them are complete)."""
     keep_sensors(scenario, FAST)
     real = rangeproc.report.figures.write_report
 
@@ -402,10 +403,26 @@ def test_report_failure_between_figures(cli, explain, scenario, monkeypatch):
     assert_one_error_line(result, explain, 1, "report failed")
     out = scenario / "out"
     assert temp_files(out) == []
-    assert not (out / "summary.json").exists()
-    assert_complete_fused(out / "fused.parquet")
-    assert assert_complete_pngs(out / "report") == [
-        "residuals_G1.png", "residuals_R1.png", "trajectory.png"]
+    assert listing(out) == []
+
+
+def test_failed_rerun_leaves_previous_outputs_intact(cli, explain, scenario, monkeypatch):
+    """A good run, then a rerun that fails in the report: the first run's outputs stay, whole
+    and unmixed (same bytes), with no temp or staging files."""
+    keep_sensors(scenario, FAST)
+    assert cli(["run", scenario / CONFIG, "--quiet"]).exit_code == 0
+    out = scenario / "out"
+    before = {name: (out / name).read_bytes() for name in listing(out)}
+    assert "fused.parquet" in before and "summary.json" in before
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("report failed")
+
+    monkeypatch.setattr(rangeproc.report.figures, "write_report", failing)
+    result = cli(["run", scenario / CONFIG])
+    assert_one_error_line(result, explain, 1, "report failed")
+    assert temp_files(out) == []
+    assert {name: (out / name).read_bytes() for name in listing(out)} == before
 
 
 def test_report_failure_inside_a_png_write(cli, explain, scenario, monkeypatch):
@@ -426,9 +443,7 @@ def test_report_failure_inside_a_png_write(cli, explain, scenario, monkeypatch):
     assert "internal error" in line
     out = scenario / "out"
     assert temp_files(out) == []
-    assert not (out / "summary.json").exists()
-    assert_complete_fused(out / "fused.parquet")
-    assert listing(out / "report") == []
+    assert listing(out) == []
 
 
 def test_parquet_write_failure_leaves_no_fused_file(cli, explain, scenario, monkeypatch):

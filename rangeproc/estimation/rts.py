@@ -30,7 +30,7 @@ from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pa
 
 @njit(cache=True, error_model="numpy")
 def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
-               want_em: bool = True):
+               want_em: bool = True, in_place: bool = False):
     """Smooth filtered states.
 
     Args:
@@ -38,6 +38,8 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
             filtered covariances; q_steps: (E,) white-jerk PSD (m^2/s^5) of the step ending at
             each epoch (``q_steps[0]`` unused), the same the filter used.
         want_em: compute the EM statistic (skipped when only the smoothed track is wanted).
+        in_place: overwrite ``xf`` and ``Pf`` with the smoothed values instead of copying
+            them (halves the stored history on long runs).
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) packed smoothed states and covariances, and
@@ -45,8 +47,12 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
         (m^2/s^4, ``em[0] = 0``; all zero when ``want_em`` is False).
     """
     E, n = xf.shape
-    xs = xf.copy()
-    Ps = Pf.copy()
+    if in_place:
+        xs = xf
+        Ps = Pf
+    else:
+        xs = xf.copy()
+        Ps = Pf.copy()
     em = np.zeros(E)
     P_f = np.empty((n, n))
     P_next = np.empty((n, n))
@@ -57,14 +63,16 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     T = np.empty((n, n))
     M = np.empty((n, n))
     x_pred = np.empty(n)
+    x_filt = np.empty(n)                             # filtered state at k
     dx = np.empty(n)
-    unpack(Pf[E - 1], P_next)
+    unpack(Ps[E - 1], P_next)
     for k in range(E - 2, -1, -1):
         dt = epoch_t[k + 1] - epoch_t[k]
         q = q_steps[k + 1]
-        unpack(Pf[k], P_f)
+        unpack(Ps[k], P_f)                             # still the filtered value at k
         for i in range(n):
-            x_pred[i] = xf[k, i]
+            x_pred[i] = xs[k, i]
+            x_filt[i] = xs[k, i]
             for j in range(n):
                 P_pred[i, j] = P_f[i, j]
         predict_state(x_pred, dt)
@@ -79,7 +87,7 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
         for i in range(n):
             dx[i] = xs[k + 1, i] - x_pred[i]
         for i in range(n):                             # xs = xf + C (xs_next - x_pred)
-            acc = xf[k, i]
+            acc = x_filt[i]
             for j in range(n):
                 acc += Ct[j, i] * dx[j]
             xs[k, i] = acc

@@ -31,13 +31,13 @@ from rangeproc.errors import DataError
 
 __all__ = [
     "NED_TO_ENU",
-    "body_to_ned",
-    "interpolate_attitude",
-    "clean_series",
     "Located",
+    "body_to_ned",
+    "clean_series",
+    "interpolate_attitude",
+    "interval_body_rates",
     "locate",
     "rates_at_samples",
-    "interval_body_rates",
 ]
 
 log = logging.getLogger(__name__)

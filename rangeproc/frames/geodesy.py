@@ -25,12 +25,12 @@ from rangeproc.config import Geodetic
 
 __all__ = [
     "WGS84",
-    "geodetic_to_ecef",
-    "ecef_to_geodetic",
-    "ecef_to_enu_matrix",
-    "enu_to_aer",
-    "aer_to_enu",
     "RangeFrame",
+    "aer_to_enu",
+    "ecef_to_enu_matrix",
+    "ecef_to_geodetic",
+    "enu_to_aer",
+    "geodetic_to_ecef",
 ]
 
 WGS84 = pymap3d.Ellipsoid.from_name("wgs84")

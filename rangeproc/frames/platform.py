@@ -36,13 +36,13 @@ from rangeproc.io.logs import SensorLog
 
 __all__ = [
     "SensorGeometry",
-    "platform_geometry",
-    "deck_unit_vector",
     "deck_angles",
-    "deck_to_stabilised",
-    "stabilised_to_deck",
     "deck_to_range",
+    "deck_to_stabilised",
+    "deck_unit_vector",
+    "platform_geometry",
     "range_to_deck",
+    "stabilised_to_deck",
 ]
 
 log = logging.getLogger(__name__)

@@ -36,7 +36,7 @@ class MeasurementBatch:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
-    def with_sigma(self, sigma: np.ndarray) -> "MeasurementBatch":
+    def with_sigma(self, sigma: np.ndarray) -> MeasurementBatch:
         """A copy sharing every array but ``sigma`` (N, 6)."""
         return MeasurementBatch(self.t, self.model, self.z, sigma, self.s, self.sv, self.Qr,
                                 self.sensor, self.source_row, self.station, self.track,

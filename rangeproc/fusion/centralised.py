@@ -19,8 +19,8 @@ Stages (each a function of arrays; numerics in the compiled kernels):
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.stats import chi2
@@ -125,10 +125,9 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
         xf, Pf, nis, dof, rej, _, resets = ekf_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin)
-        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q)
+        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True)   # in place over xf, Pf
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
-    del xf, Pf
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
     return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets

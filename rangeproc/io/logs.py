@@ -1,8 +1,8 @@
 """In-memory form of one sensor's log after reading: NumPy columns in SI units."""
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

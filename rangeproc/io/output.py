@@ -1,7 +1,7 @@
 """Output tables of DATA_CONTRACT section 4 (pandas lives at the edges only)."""
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd

@@ -63,9 +63,8 @@ def write_parquet(df: pd.DataFrame, path: str | Path) -> Path:
 
 def write_text(text: str, path: str | Path) -> Path:
     """Write UTF-8 ``text`` to ``path`` atomically; returns the path."""
-    with atomic_path(path) as tmp:
-        with tmp.open("w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
+    with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as fh:
+        fh.write(text)
     return Path(path)
 
 

@@ -5,19 +5,18 @@ NumPy; times are seconds on the range time scale unless a name says ``since t0``
 """
 from __future__ import annotations
 
-import os
 import re
-import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 
+from rangeproc.io.writers import atomic_path
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 #: Resolution of every report PNG (dots per inch).
@@ -207,14 +206,9 @@ def save_figure(fig: Figure, path: Path) -> Path:
     The figure is cleared afterwards to free its memory. No temp file survives an exception.
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png.tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=DPI, metadata={"Software": "rangeproc"})
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=DPI, metadata={"Software": "rangeproc"})
     finally:
         fig.clear()
     return path
@@ -224,7 +218,8 @@ _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 
 
 def safe_name(name: str) -> str:
-    """A file-name-safe form of an id: runs of other characters become ``_`` ('S 1/a' -> 'S_1_a')."""
+    """A file-name-safe form of an id: runs of other characters become ``_``
+    ('S 1/a' -> 'S_1_a')."""
     out = _UNSAFE.sub("_", name).strip("._")
     return out or "unnamed"
 

@@ -8,15 +8,14 @@ with 95 % probability when the noise model is right.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from scipy import stats
 
-from rangeproc.report.common import (CYCLE, KIND_COLORS, SensorView, new_figure, t0_note,
-                                     time_label)
+from rangeproc.report.common import CYCLE, KIND_COLORS, SensorView, new_figure, t0_note, time_label
 
 #: Windows per sensor aimed at (window length W = rows / this, clipped to the limits below).
 TARGET_WINDOWS = 400

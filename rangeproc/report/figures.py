@@ -7,8 +7,8 @@ Agg canvas (no pyplot, no global backend switch); style settings are applied in 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
 
 import matplotlib
 import numpy as np

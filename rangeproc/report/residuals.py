@@ -13,9 +13,18 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from rangeproc.report.common import (CYCLE, REJECT_COLOR, SensorView, binned_extreme,
-                                     decimate_indices, display_unit, new_figure, robust_spread,
-                                     t0_note, time_label)
+from rangeproc.report.common import (
+    CYCLE,
+    REJECT_COLOR,
+    SensorView,
+    binned_extreme,
+    decimate_indices,
+    display_unit,
+    new_figure,
+    robust_spread,
+    t0_note,
+    time_label,
+)
 
 #: Half-height of the y-range in robust spreads (1.4826 MAD) of the used residuals.
 SPREAD_FACTOR = 6.0

@@ -2,16 +2,24 @@
 sensors supported each target's estimate."""
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
-from rangeproc.report.common import (CYCLE, KIND_COLORS, REJECT_COLOR, SensorView,
-                                     binned_extreme, n_sensors_colormap, new_figure, t0_note,
-                                     time_label)
+from rangeproc.report.common import (
+    CYCLE,
+    KIND_COLORS,
+    REJECT_COLOR,
+    SensorView,
+    binned_extreme,
+    n_sensors_colormap,
+    new_figure,
+    t0_note,
+    time_label,
+)
 from rangeproc.results import TrackEstimate
 
 #: Spans closer than this many median sample intervals are merged.

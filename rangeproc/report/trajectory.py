@@ -1,15 +1,22 @@
 """``trajectory.png``: plan view, altitude, speed and 1-sigma position uncertainty vs time."""
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from rangeproc.report.common import (CYCLE, break_gaps, n_sensors_colormap, new_figure,
-                                     stride_indices, t0_note, time_label)
+from rangeproc.report.common import (
+    CYCLE,
+    break_gaps,
+    n_sensors_colormap,
+    new_figure,
+    stride_indices,
+    t0_note,
+    time_label,
+)
 from rangeproc.results import TrackEstimate
 
 #: Most epochs per target drawn in a line (tracks are decimated by stride for drawing).

@@ -93,7 +93,6 @@ def test_smoother_with_varying_steps_matches_dense_batch_solution():
     xf, Pf, xs, Ps = _run_rangeproc(t, z, sigma, x0, P0, q)
     # Batch solution: stack all states, prior + dynamics + measurements as one least squares.
     dim = 9 * n
-    rows, rhs, w = [], [], []
     A = np.zeros((9, dim))
     A[:, :9] = np.eye(9)
     blocks_A = [A]

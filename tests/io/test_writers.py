@@ -32,20 +32,18 @@ def test_atomic_path_renames_on_success(tmp_path: Path) -> None:
 
 def test_failing_write_leaves_no_file_and_no_temp(tmp_path: Path) -> None:
     final = tmp_path / "fused.parquet"
-    with pytest.raises(Boom):
-        with atomic_path(final) as tmp:
-            tmp.write_bytes(b"half a file")
-            raise Boom("disk full")
+    with pytest.raises(Boom), atomic_path(final) as tmp:
+        tmp.write_bytes(b"half a file")
+        raise Boom("disk full")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_failing_write_keeps_previous_file(tmp_path: Path) -> None:
     final = tmp_path / "summary.json"
     write_json({"v": 1}, final)
-    with pytest.raises(Boom):
-        with atomic_path(final) as tmp:
-            tmp.write_text('{"v": 2, "trunc')
-            raise Boom()
+    with pytest.raises(Boom), atomic_path(final) as tmp:
+        tmp.write_text('{"v": 2, "trunc')
+        raise Boom()
     assert json.loads(final.read_text()) == {"v": 1}
     assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]
 

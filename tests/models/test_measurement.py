@@ -67,7 +67,10 @@ def test_range_rate_equals_derivative_of_range():
     x, s, sv, Qr = _random_case(rng)
     dt = 1e-4
     p0, v = x[:3], x[3:6] - sv
-    r = lambda t: np.linalg.norm(p0 + v * t - s)  # noqa: E731
+
+    def r(t):
+        return np.linalg.norm(p0 + v * t - s)
+
     h, _ = measure_py(SPHERICAL, x, s, sv, Qr)
     assert h[3] == pytest.approx((r(dt) - r(-dt)) / (2 * dt), rel=1e-7)
 

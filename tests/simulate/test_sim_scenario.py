@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import filecmp
-import tomllib
 
 import numpy as np
 import pandas as pd
 import pytest
+import tomllib
 
 from rangeproc.config import load_config
 from rangeproc.errors import ConfigError

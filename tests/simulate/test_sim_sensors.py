@@ -7,13 +7,13 @@ a processor sees, not from the simulator's geometry code.
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pyproj
 import pytest
+import tomllib
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from rangeproc.simulate import draw_scenario, simulate_scenario

@@ -1,0 +1,300 @@
+"""Kernel benchmark helpers: one radar data set, and the same EKF + RTS smoother run by
+rangeproc, FilterPy and Stone Soup.
+
+The data set (:func:`radar_data`): one fixed radar at the range origin measuring slant range,
+azimuth and elevation of a target flying a climbing circle of 20 km radius around it at
+250 m/s (so the azimuth crosses the +-pi cut every ~500 s and all three filters must wrap the
+azimuth residual). Rows every ``DT = 1/16`` s: a power of two, so the epoch times, their
+differences and Stone Soup's microsecond ``timedelta`` steps are all exact and every
+implementation sees the same ``dt`` bit for bit. Noise: 5 m range, 0.2 mrad in both angles.
+
+The maths all three run: CA model with white-jerk PSD ``q`` (rangeproc's ``ca_transition``),
+prior ``x0, P0`` at the first row, update at the first row, then predict/update per row
+(no gating, no divergence guard), then a fixed-interval RTS smoother.
+
+Conventions (rangeproc): state ``[e, n, u, ve, vn, vu, ae, an, au]``; ``A = atan2(e, n)``
+clockwise from north; ``E = atan2(u, hypot(e, n))``. Stone Soup orders its CA state per axis
+``[x, vx, ax, y, vy, ay, z, vz, az]`` (permutation :data:`SS_ORDER`) and its
+``CartesianToElevationBearingRange`` measures ``[elevation, bearing, range]`` with bearing
+``atan2(y, x)`` counter-clockwise from x (east); so it is fed ``[E, wrap(pi/2 - A), R]``
+with ``R = diag(sig_E^2, sig_A^2, sig_R^2)`` (a sign flip and offset of an angle leave its
+variance unchanged), and its results are permuted back.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+
+import numpy as np
+
+from rangeproc.models.motion import ca_transition_py
+
+DT = 1.0 / 16.0                        #: s between rows
+SIGMA = np.array([5.0, 2e-4, 2e-4])    #: range (m), azimuth (rad), elevation (rad)
+Q_PSD = 1.0                            #: white-jerk PSD of the filter (m^2/s^5)
+#: Stone Soup state index -> rangeproc state index (per-axis vs per-derivative ordering)
+SS_ORDER = np.array([3 * deriv + axis for axis in range(3) for deriv in range(3)])
+SS_BACK = np.argsort(SS_ORDER)         #: rangeproc state index -> Stone Soup state index
+
+
+@dataclass(frozen=True)
+class RadarData:
+    """t (N,) s; z (N, 3) [R (m), A (rad), E (rad)] in rangeproc's convention; x0 (9,),
+    P0 (9, 9) prior at t[0]; q white-jerk PSD (m^2/s^5)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    x0: np.ndarray
+    P0: np.ndarray
+    q: float
+
+    def head(self, n: int) -> RadarData:
+        """The first ``n`` rows (same prior)."""
+        return RadarData(self.t[:n], self.z[:n], self.x0, self.P0, self.q)
+
+
+@dataclass(frozen=True)
+class Estimates:
+    """Filtered and smoothed states (N, 9) in rangeproc's order, smoothed position variances
+    (N, 3) (m^2)."""
+
+    xf: np.ndarray
+    xs: np.ndarray
+    var_pos: np.ndarray
+
+
+def wrap(a: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles (rad) to [-pi, pi)."""
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def radar_data(n: int, seed: int = 1) -> RadarData:
+    """Truth on a climbing circle around the radar, noisy [R, A, E] rows, perturbed prior."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    radius, speed, phase = 20e3, 250.0, math.pi - 0.3   # crosses azimuth pi after 24 s
+    w = speed / radius
+    ang = w * t + phase
+    e, nn = radius * np.sin(ang), radius * np.cos(ang)
+    u = 5e3 + 300.0 * np.sin(0.01 * t)
+    rho = np.hypot(e, nn)
+    z = np.column_stack([np.hypot(rho, u), np.arctan2(e, nn), np.arctan2(u, rho)])
+    z += rng.normal(0.0, SIGMA, size=z.shape)
+    z[:, 1] = wrap(z[:, 1])
+    truth0 = np.array([e[0], nn[0], u[0], speed * math.cos(phase), -speed * math.sin(phase),
+                       3.0, -w * speed * math.sin(phase), -w * speed * math.cos(phase), 0.0])
+    x0 = truth0 + rng.normal(0.0, [30.0] * 3 + [10.0] * 3 + [1.0] * 3)
+    P0 = np.diag([100.0 ** 2] * 3 + [30.0 ** 2] * 3 + [10.0 ** 2] * 3)
+    return RadarData(t, z, x0, P0, Q_PSD)
+
+
+# ---------------------------------------------------------------------------------------------
+# rangeproc. ADAPT HERE when the kernel signatures change: rangeproc_inputs builds the arrays
+# (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
+# ---------------------------------------------------------------------------------------------
+def rangeproc_inputs(d: RadarData) -> tuple:
+    """Positional arguments of ``ekf_forward`` for one radar at the origin, gating off."""
+    from rangeproc.models.measurement import SPHERICAL
+    n = len(d.t)
+    z = np.full((n, 6), np.nan)
+    z[:, :3] = d.z
+    sigma = np.ones((n, 6))
+    sigma[:, :3] = SIGMA
+    zeros3 = np.zeros((n, 3))
+    return (d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64), z, sigma,
+            zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
+            d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
+            np.empty((0, 9)))
+
+
+def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The timed call: EKF forward pass + RTS smoother (without the EM process-noise statistic,
+    which the peers do not compute). Returns (xf, xs, Ps packed)."""
+    from rangeproc.estimation.ekf import ekf_forward
+    from rangeproc.estimation.rts import rts_smooth
+    epoch_t, q_steps = args[0], args[11]
+    xf, Pf = ekf_forward(*args)[:2]
+    xs, Ps = rts_smooth(epoch_t, xf, Pf, q_steps, want_em=False)[:2]
+    return xf, xs, Ps
+
+
+def rangeproc_estimates(out: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Estimates:
+    """Unpack the kernel's output (packed lower triangle, row-major: diag i at i(i+3)/2)."""
+    xf, xs, Ps = out
+    diag = [i * (i + 3) // 2 for i in range(3)]
+    return Estimates(xf, xs, Ps[:, diag])
+
+
+# ---------------------------------------------------------------------------------------------
+# FilterPy: ExtendedKalmanFilter per row with a plain-NumPy RAE model, then rts_smoother.
+# ---------------------------------------------------------------------------------------------
+def rae_h(x: np.ndarray) -> np.ndarray:
+    """[R, A, E] of state x (radar at the origin, rangeproc's angle convention)."""
+    e, n, u = x[0], x[1], x[2]
+    rho = math.hypot(e, n)
+    return np.array([math.hypot(rho, u), math.atan2(e, n), math.atan2(u, rho)])
+
+
+def rae_jacobian(x: np.ndarray) -> np.ndarray:
+    """(3, 9) Jacobian of :func:`rae_h`."""
+    e, n, u = x[0], x[1], x[2]
+    rho2 = e * e + n * n
+    rho = math.sqrt(rho2)
+    r2 = rho2 + u * u
+    r = math.sqrt(r2)
+    H = np.zeros((3, 9))
+    H[0, :3] = e / r, n / r, u / r
+    H[1, :2] = n / rho2, -e / rho2
+    H[2, :3] = -e * u / (r2 * rho), -n * u / (r2 * rho), rho / r2
+    return H
+
+
+def rae_residual(z: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """z - h with the azimuth wrapped."""
+    y = z - h
+    y[1] = wrap(y[1])
+    return y
+
+
+def filterpy_run(d: RadarData) -> Estimates:
+    """FilterPy ExtendedKalmanFilter (update at the prior's epoch, then predict/update) and
+    KalmanFilter.rts_smoother with the same F, Q every step."""
+    from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter
+    F, Q = ca_transition_py(DT, d.q)
+    ekf = ExtendedKalmanFilter(dim_x=9, dim_z=3)
+    ekf.x, ekf.P, ekf.F, ekf.Q = d.x0.copy(), d.P0.copy(), F, Q
+    ekf.R = np.diag(SIGMA ** 2)
+    n = len(d.t)
+    xf, Pf = np.empty((n, 9)), np.empty((n, 9, 9))
+    for k in range(n):
+        if k:
+            ekf.predict()
+        ekf.update(d.z[k], rae_jacobian, rae_h, residual=rae_residual)
+        xf[k], Pf[k] = ekf.x, ekf.P
+    xs, Ps, _, _ = KalmanFilter(dim_x=9, dim_z=3).rts_smoother(xf, Pf, [F] * n, [Q] * n)
+    return Estimates(xf, xs, Ps[:, [0, 1, 2], [0, 1, 2]])
+
+
+# ---------------------------------------------------------------------------------------------
+# Stone Soup: ExtendedKalmanPredictor/Updater with its own CA and elevation-bearing-range
+# models, then KalmanSmoother (its Rauch-Tung-Striebel smoother).
+# ---------------------------------------------------------------------------------------------
+@functools.cache
+def _analytic_model_class() -> type:
+    """Stone Soup's CartesianToElevationBearingRange with the analytic Jacobian of
+    :func:`rae_jacobian` (rows elevation, bearing = pi/2 - A, range; radar at the origin,
+    no rotation). Everything else (h(x), angle types, wrapping) is Stone Soup's own."""
+    from stonesoup.models.measurement.nonlinear import CartesianToElevationBearingRange
+
+    class AnalyticElevationBearingRange(CartesianToElevationBearingRange):
+        def jacobian(self, state, **kwargs):
+            H = rae_jacobian(np.asarray(state.state_vector, float).ravel()[SS_BACK])
+            return np.vstack([H[2], -H[1], H[0]])[:, SS_ORDER]
+
+    return AnalyticElevationBearingRange
+
+
+def stonesoup_models(q: float, analytic: bool = False) -> tuple:
+    """(transition model, measurement model) in Stone Soup's conventions. ``analytic``: the
+    measurement model gets the analytic Jacobian instead of Stone Soup's finite difference."""
+    from stonesoup.models.measurement.nonlinear import CartesianToElevationBearingRange
+    from stonesoup.models.transition.linear import (
+        CombinedLinearGaussianTransitionModel,
+        ConstantAcceleration,
+    )
+    tm = CombinedLinearGaussianTransitionModel([ConstantAcceleration(noise_diff_coeff=q)] * 3)
+    cls = _analytic_model_class() if analytic else CartesianToElevationBearingRange
+    mm = cls(ndim_state=9, mapping=(0, 3, 6), noise_covar=np.diag(SIGMA[[2, 1, 0]] ** 2))
+    return tm, mm
+
+
+def stonesoup_model_check(q: float = Q_PSD, dt: float = DT) -> dict[str, float]:
+    """Max |difference| of Stone Soup's F, Q (permuted) from rangeproc's, and of its h(x)
+    (converted to [R, A, E]) from :func:`rae_h`, at one state."""
+    from stonesoup.types.array import StateVector
+    from stonesoup.types.state import State
+    tm, mm = stonesoup_models(q)
+    F, Q = ca_transition_py(dt, q)
+    step = timedelta(seconds=dt)
+    x = np.array([-1234.5, 18000.0, 4800.0, 200.0, -30.0, 2.0, 0.5, 0.1, 0.0])
+    h = np.asarray(mm.function(State(StateVector(x[SS_ORDER]))), dtype=float).ravel()
+    h_rae = np.array([h[2], wrap(np.pi / 2 - h[1]), h[0]])
+    ix = np.ix_(SS_ORDER, SS_ORDER)
+    return {"F": float(np.abs(tm.matrix(time_interval=step) - F[ix]).max()),
+            "Q": float(np.abs(tm.covar(time_interval=step) - Q[ix]).max()),
+            "h": float(np.abs(wrap(h_rae - rae_h(x))).max())}
+
+
+def stonesoup_inputs(d: RadarData, analytic: bool = False) -> tuple:
+    """Models, prior and Detection objects (built outside the timed region)."""
+    from stonesoup.types.array import CovarianceMatrix, StateVector
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.state import GaussianState
+    tm, mm = stonesoup_models(d.q, analytic)
+    t0 = datetime(2026, 5, 4, 10, 0, 0)
+    ix = np.ix_(SS_ORDER, SS_ORDER)
+    prior = GaussianState(StateVector(d.x0[SS_ORDER]), CovarianceMatrix(d.P0[ix]), timestamp=t0)
+    dets = [Detection(StateVector([el, wrap(np.pi / 2 - az), r]),
+                      timestamp=t0 + timedelta(seconds=float(tk)), measurement_model=mm)
+            for tk, (r, az, el) in zip(d.t, d.z)]
+    return tm, mm, prior, dets
+
+
+def stonesoup_run(inputs: tuple) -> Estimates:
+    """Predict/update per detection (the first predicts over dt = 0: F = I, Q = 0), then
+    smooth with Stone Soup's KalmanSmoother, which reuses the stored predictions."""
+    from stonesoup.predictor.kalman import ExtendedKalmanPredictor
+    from stonesoup.smoother.kalman import KalmanSmoother
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.track import Track
+    tm, mm, prior, dets = inputs
+    predictor = ExtendedKalmanPredictor(tm)
+    updater = _stonesoup_updater(mm)
+    track = Track()
+    state = prior
+    for det in dets:
+        pred = predictor.predict(state, timestamp=det.timestamp)
+        state = updater.update(SingleHypothesis(pred, det))
+        track.append(state)
+    smoothed = KalmanSmoother(tm).smooth(track)
+    xf = np.array([np.asarray(s.state_vector, float).ravel() for s in track])[:, SS_BACK]
+    xs = np.array([np.asarray(s.state_vector, float).ravel() for s in smoothed])[:, SS_BACK]
+    var = np.array([np.diag(s.covar)[[0, 3, 6]] for s in smoothed])
+    return Estimates(xf, xs, var)
+
+
+def _stonesoup_updater(mm):
+    """Stone Soup's ExtendedKalmanUpdater with the Joseph-form covariance update
+    (``use_joseph_cov``), the form rangeproc and FilterPy use.
+
+    With the stock measurement model the Jacobian is a forward finite difference
+    (``stonesoup.functions.jacobian``) whose step is ``1e8 * np.spacing(x)`` floored at 1e-8;
+    ``np.spacing`` is negative for negative x, so every negative coordinate gets a 1e-8 m
+    step and its Jacobian column carries ~1e-4 relative round-off (on a 20 km target). That,
+    not the filter maths, is why the stock run differs from rangeproc by millimetres; with
+    ``analytic=True`` the same code agrees to round-off.
+    """
+    from stonesoup.updater.kalman import ExtendedKalmanUpdater
+    return ExtendedKalmanUpdater(mm, use_joseph_cov=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# UKF row: not benchmarked yet (rangeproc has no UKF). When it exists, add rangeproc's UKF +
+# smoother here with FilterPy's UnscentedKalmanFilter and Stone Soup's UnscentedKalmanUpdater/
+# UnscentedKalmanSmoother as peers, and a row in bench.py's table.
+# ---------------------------------------------------------------------------------------------
+
+
+def agreement(ref: Estimates, other: Estimates) -> dict[str, float]:
+    """Max |difference| of filtered / smoothed positions (m), the same relative to the largest
+    |position| coordinate, and the max relative difference of the smoothed position sigmas."""
+    n = min(len(ref.xf), len(other.xf))
+    scale = float(np.abs(ref.xs[:n, :3]).max())
+    df = float(np.abs(ref.xf[:n, :3] - other.xf[:n, :3]).max())
+    ds = float(np.abs(ref.xs[:n, :3] - other.xs[:n, :3]).max())
+    sig_ref, sig_other = np.sqrt(ref.var_pos[:n]), np.sqrt(other.var_pos[:n])
+    return {"filtered_pos_abs_m": df, "smoothed_pos_abs_m": ds,
+            "filtered_pos_rel": df / scale, "smoothed_pos_rel": ds / scale,
+            "smoothed_sigma_rel": float(np.abs(sig_other / sig_ref - 1.0).max())}
