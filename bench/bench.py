@@ -112,7 +112,7 @@ def cold_first_call(n: int) -> dict:
 
 def first_call_child(n: int) -> None:
     t0 = time.perf_counter()
-    import rangeproc.estimation.ekf
+    import rangeproc.estimation.forward
     import rangeproc.estimation.rts  # noqa: F401
     t1 = time.perf_counter()
     args = peers.rangeproc_inputs(peers.radar_data(n))
@@ -224,7 +224,7 @@ def scenario(seed: int, duration: float, rate_scale: float = 1.0
 #: (skipped when a name no longer exists there; the rest of the stage is "other")
 FUSE_PARTS = {"difference_sigma": "edit", "residual_sigma": "edit",
               "select_process_noise": "tune_q", "local_process_noise": "tune_q",
-              "ekf_forward": "filter", "rts_smooth": "smooth", "smoothed_residuals": "residuals"}
+              "kalman_forward": "filter", "rts_smooth": "smooth", "smoothed_residuals": "residuals"}
 
 
 def _profile_fuse() -> tuple[dict[str, float], dict[str, int]]:
@@ -317,7 +317,8 @@ def pipeline_bench(a: argparse.Namespace) -> dict:
     extra = r["peak_rss_bytes"] - r["baseline_rss_bytes"]
     return {"config": str(cfg.relative_to(ROOT)), "duration_s": a.duration,
             "rate_scale": scale, "probe_rows_scale1": base, "target_rows_requested": a.rows,
-            "file_rows": written, "simulate_s": sim_s, "warmup_wall_s": warm_s, "process_wall_s": wall, **r,
+            "file_rows": written, "simulate_s": sim_s, "warmup_wall_s": warm_s,
+            "process_wall_s": wall, **r,
             "total_rows": n, "input_bytes": sum(p.stat().st_size for p in inputs),
             "us_per_meas_run": r["run_s"] / n * 1e6, "us_per_meas_wall": wall / n * 1e6,
             "peak_above_baseline_bytes_per_meas": extra / n}

@@ -11,8 +11,8 @@ def main(src: str, dst: str) -> None:
     rel = Path("..") / src_p.parent.relative_to(dst_p.parent.parent)
     text = src_p.read_text()
     text = re.sub(r'^file = "([^"]+)"', lambda m: f'file = "{(rel / m.group(1)).as_posix()}"',
-                  text, flags=re.M)
-    text = re.sub(r'^dir = "([^"]+)"', 'dir = "../out/sample"', text, flags=re.M)
+                  text, flags=re.MULTILINE)
+    text = re.sub(r'^dir = "([^"]+)"', 'dir = "../out/sample"', text, flags=re.MULTILINE)
     dst_p.write_text(text)
 
 

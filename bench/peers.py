@@ -95,7 +95,7 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
 def rangeproc_inputs(d: RadarData) -> tuple:
-    """Positional arguments of ``ekf_forward`` for one radar at the origin, gating off."""
+    """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off."""
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -106,16 +106,16 @@ def rangeproc_inputs(d: RadarData) -> tuple:
     return (d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64), z, sigma,
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
-            np.empty((0, 9)))
+            np.empty((0, 9)), 0, np.array([1.0, 2.0, -6.0]))
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The timed call: EKF forward pass + RTS smoother (without the EM process-noise statistic,
     which the peers do not compute). Returns (xf, xs, Ps packed)."""
-    from rangeproc.estimation.ekf import ekf_forward
+    from rangeproc.estimation.forward import kalman_forward
     from rangeproc.estimation.rts import rts_smooth
     epoch_t, q_steps = args[0], args[11]
-    xf, Pf = ekf_forward(*args)[:2]
+    xf, Pf = kalman_forward(*args)[:2]
     xs, Ps = rts_smooth(epoch_t, xf, Pf, q_steps, want_em=False)[:2]
     return xf, xs, Ps
 

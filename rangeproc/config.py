@@ -87,16 +87,19 @@ class ProcessingSettings:
     """Optional ``[processing]`` section (rangeproc's own; every field has a working default).
 
     gate_probability: chi-square gate probability for innovation gating (per measurement row).
-    noise_passes: how many times noise sigmas are re-estimated from smoothed residuals.
+    noise_passes: refinement passes after the first (re-linearisation at the smoothed track,
+        noise and process-noise re-estimation).
     adapt_noise: estimate per-sensor noise (and local bursts) from the data.
-    process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None = choose
-        by maximum likelihood from the data.
+    process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
+        estimate it from the data (maximum likelihood, then local EM).
+    filter: measurement update, "ekf" (linearised, Joseph form) or "ukf" (unscented).
     """
 
     gate_probability: float = 0.9999
     noise_passes: int = 2
     adapt_noise: bool = True
     process_noise: float | None = None
+    filter: str = "ekf"
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -137,7 +140,9 @@ _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
 _SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
                 "time_offset", "sigma", "target", "stations")
 _GEODETIC_KEYS = ("lat", "lon", "height")
-_PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise")
+_PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
+                    "filter")
+FILTERS = ("ekf", "ukf")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -348,6 +353,12 @@ class _Validator:
             kw["adapt_noise"] = t["adapt_noise"]
         if "process_noise" in t:
             kw["process_noise"] = self.positive(t["process_noise"], "processing.process_noise")
+        if "filter" in t:
+            f = self.string(t["filter"], "processing.filter")
+            if f not in FILTERS:
+                raise self.error("processing.filter",
+                                 f"unknown filter {f!r} (expected one of: {_join(FILTERS)})")
+            kw["filter"] = f
         return ProcessingSettings(**kw)
 
     def sensor(self, x: object, key: str, folder: Path) -> SensorSettings:

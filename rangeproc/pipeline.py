@@ -21,6 +21,7 @@ import numpy as np
 import rangeproc
 from rangeproc.config import Config, SensorSettings, load_config
 from rangeproc.errors import ConfigError
+from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
@@ -54,7 +55,8 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
     """Map the optional ``[processing]`` config section onto the estimator's settings."""
     p = cfg.processing
     return EstimatorSettings(gate_probability=p.gate_probability, noise_passes=p.noise_passes,
-                             adapt_noise=p.adapt_noise, process_noise=p.process_noise)
+                             adapt_noise=p.adapt_noise, process_noise=p.process_noise,
+                             method=UKF if p.filter == "ukf" else EKF)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None

@@ -26,7 +26,7 @@ def ca_f1(dt: float) -> tuple[float, float]:
     return dt, 0.5 * dt * dt
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def predict_state(x: np.ndarray, dt: float) -> None:
     """``x <- F x`` for the CA block (in place); extra states unchanged."""
     h2 = 0.5 * dt * dt
@@ -35,7 +35,7 @@ def predict_state(x: np.ndarray, dt: float) -> None:
         x[3 + a] += dt * x[6 + a]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
     """``out <- F P`` (n, n) using the Kronecker structure of F."""
     n = P.shape[0]
@@ -52,7 +52,7 @@ def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
             out[i, j] = P[i, j]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
     """``P <- F P F^T + Q`` in place (symmetric result); ``FP`` (n, n) work, left = F P.
 
@@ -79,7 +79,7 @@ def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
             P[j, i] = v
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def add_q(P: np.ndarray, dt: float, q: float) -> None:
     """``P <- P + Q(dt, q)`` for the CA block."""
     dt2 = dt * dt

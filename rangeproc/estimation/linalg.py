@@ -16,7 +16,7 @@ def packed_size(n: int) -> int:
     return n * (n + 1) // 2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def pack(P: np.ndarray, out: np.ndarray) -> None:
     """Store the lower triangle of symmetric ``P`` (n, n) into ``out`` (n(n+1)/2,)."""
     n = P.shape[0]
@@ -27,7 +27,7 @@ def pack(P: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def unpack(p: np.ndarray, out: np.ndarray) -> None:
     """Inverse of :func:`pack`: fill the full symmetric ``out`` (n, n)."""
     n = out.shape[0]
@@ -39,7 +39,7 @@ def unpack(p: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     """Lower Cholesky factor of the leading (m, m) block of ``S``, in place. False if not PD."""
     for j in range(m):
@@ -60,7 +60,7 @@ def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def chol_solve_inplace(L: np.ndarray, m: int, B: np.ndarray, ncols: int) -> None:
     """Solve ``(L L^T) X = B`` for the leading (m, ncols) block of ``B``, in place.
 

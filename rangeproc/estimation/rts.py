@@ -77,13 +77,10 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                 P_pred[i, j] = P_f[i, j]
         predict_state(x_pred, dt)
         predict_cov(P_pred, T, dt, q)                  # P_pred = F P_f F^T + Q
-        left_f(P_f, FP, dt)                            # F P_f
+        left_f(P_f, Ct, dt)                            # F P_f
         if not cholesky_inplace(P_pred, n):
             raise FloatingPointError("predicted covariance not positive definite in RTS")
-        for i in range(n):
-            for j in range(n):
-                Ct[i, j] = FP[i, j]
-        chol_solve_inplace(P_pred, n, Ct, n)           # C^T = P_pred^-1 F P_f
+        chol_solve_inplace(P_pred, n, Ct, n)           # C^T = P_pred^-1 F P_f (in place)
         for i in range(n):
             dx[i] = xs[k + 1, i] - x_pred[i]
         for i in range(n):                             # xs = xf + C (xs_next - x_pred)
@@ -138,13 +135,11 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                 d = xs[k + 1, ax] - xs[k, ax]
                 acc += d * d + P_next[ax, ax] + P_f[ax, ax] - 2.0 * cross
             em[k + 1] = acc / 3.0
-        for i in range(n):
-            for j in range(n):
-                P_next[i, j] = P_f[i, j]
+        P_next, P_f = P_f, P_next                      # smoothed k becomes "next"
     return xs, Ps, em
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
     """``out <- F^T B`` (n, n) using the Kronecker structure of F (F^T is lower triangular)."""
     n = B.shape[0]

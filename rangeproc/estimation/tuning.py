@@ -14,7 +14,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from rangeproc.estimation.ekf import ekf_forward
+from rangeproc.estimation.forward import EKF, kalman_forward
+
+#: UKF parameters argument (unused by the EKF the likelihood search runs).
+EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
 
 #: Largest number of rows the likelihood search runs over.
 MAX_SEARCH_ROWS = 100_000
@@ -38,10 +41,10 @@ def select_process_noise(batch, x0: np.ndarray, P0: np.ndarray, gate: np.ndarray
     grid = np.asarray(q_grid, dtype=float)
     ll = np.empty(len(grid))
     for i, q in enumerate(grid):
-        ll[i] = ekf_forward(epoch_t, meas_epoch, batch.model[rows], batch.z[rows],
+        ll[i] = kalman_forward(epoch_t, meas_epoch, batch.model[rows], batch.z[rows],
                             batch.sigma[rows], batch.s[rows], batch.sv[rows], batch.Qr[rows],
                             batch.sensor[rows], x0, P0, np.full(len(epoch_t), float(q)), gate,
-                            reset_after, reset_inflation, no_lin)[5]
+                            reset_after, reset_inflation, no_lin, EKF, EKF_UNUSED_UKF)[5]
     best = int(np.argmax(ll))
     if 0 < best < len(grid) - 1:
         lq = np.log(grid[best - 1:best + 2])

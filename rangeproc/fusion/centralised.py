@@ -27,7 +27,7 @@ from scipy.stats import chi2
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
-from rangeproc.estimation.ekf import ekf_forward
+from rangeproc.estimation.forward import EKF, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, select_process_noise
@@ -49,7 +49,9 @@ class EstimatorSettings:
         likelihood over ``q_grid`` first, then local EM updates over ``q_window`` seconds.
     q_grid: candidate q values for the likelihood search.
     q_window: window (s) of the local process-noise estimate.
-    reset_after / reset_inflation: divergence guard of the EKF (see ``ekf_forward``).
+    reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
+    method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
+        ``(alpha, beta, kappa)``, kappa = 3 - n per seed 001.
     """
 
     gate_probability: float = 0.9999
@@ -60,6 +62,8 @@ class EstimatorSettings:
     q_window: float = 2.0
     reset_after: int = 50
     reset_inflation: float = 100.0
+    method: int = EKF
+    ukf: tuple[float, float, float] = (1.0, 2.0, 3.0 - 9)
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,9 +126,10 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, rej, _, resets = ekf_forward(
+        xf, Pf, nis, dof, rej, _, resets = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-            batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin)
+            batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
+            st.method, np.asarray(st.ukf, dtype=np.float64))
         xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True)   # in place over xf, Pf
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc

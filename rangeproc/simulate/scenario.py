@@ -4,10 +4,13 @@
 directory written to the data contract. All randomness comes from
 ``numpy.random.default_rng(seed)``, split with ``spawn`` into independent streams (geometry,
 trajectory, one per sensor) so that a reduced ``sensors`` subset gives the same scenario minus
-the omitted files. Seed families: even seeds write GPS times as ISO-8601 strings (then every
-file uses Unix seconds), odd seeds use GPS seconds of week; the theodolite's angle unit cycles
-mil/deg/rad with ``seed % 3``; ``seed % 4 == 1`` puts the ship's heading near north (yaw wraps
-across 0/360); R1 measures range rate on odd seeds; TH1 has a laser range on ``seed % 4 < 2``.
+the omitted files. ``rate_scale`` multiplies every sensor's sample rate (benchmarks: an hour
+at scale 1 is ~0.64 M rows; rows grow linearly with it) without changing the geometry, error
+parameters or random streams; scale 1 gives exactly the default files. Seed families: even
+seeds write GPS times as ISO-8601 strings (then every file uses Unix seconds), odd seeds use
+GPS seconds of week; the theodolite's angle unit cycles mil/deg/rad with ``seed % 3``;
+``seed % 4 == 1`` puts the ship's heading near north (yaw wraps across 0/360); R1 measures
+range rate on odd seeds; TH1 has a laser range on ``seed % 4 < 2``.
 """
 from __future__ import annotations
 
@@ -33,6 +36,9 @@ log = logging.getLogger(__name__)
 SENSOR_IDS = ("R1", "TH1", "S1", "SHIP_INS", "G1", "MISTRAM")
 FILES = {"R1": "R1.csv", "TH1": "TH1.parquet", "S1": "S1.csv", "SHIP_INS": "SHIP_INS.csv",
          "G1": "G1.csv", "MISTRAM": "MISTRAM.csv"}
+BASE_RATE = {"R1": 20.0, "S1": 10.0, "SHIP_INS": 50.0, "G1": 10.0,
+             "MISTRAM": 20.0}  #: Hz at rate_scale 1 (TH1: 20 or 25 Hz, drawn per seed)
+MAX_RATE_SCALE = 20.0  #: upper bound of ``rate_scale`` (INS at 1 kHz)
 LATENCY = 0.05  #: s, the known latency of one sensor (config ``time_offset``)
 TH_MIN_EL, TH_MAX_RANGE, LASER_MAX_RANGE = math.radians(3.0), 25e3, 15e3
 _ISO_EPOCH = dt.datetime(2026, 5, 4, 10, 0, tzinfo=dt.timezone.utc).timestamp()
@@ -67,6 +73,12 @@ class Scenario:
     stations: list[tuple[str, sn.Geo]]
     mistram_sigma: float
     wild_fraction: float
+    rate_scale: float = 1.0
+
+    def rate(self, sid: str) -> float:
+        """Sample rate of sensor ``sid`` (Hz): its base rate times ``rate_scale``."""
+        base = self.th_rate if sid == "TH1" else BASE_RATE[sid]
+        return base * self.rate_scale
 
     @property
     def t0(self) -> float:
@@ -87,8 +99,10 @@ def _polar(rng: np.random.Generator, lo: float, hi: float) -> tuple[float, float
     return r * math.sin(a), r * math.cos(a)
 
 
-def draw_scenario(seed: int, duration: float) -> Scenario:
-    """Draw the geometry, trajectory and error parameters of scenario ``seed``."""
+def draw_scenario(seed: int, duration: float, rate_scale: float = 1.0) -> Scenario:
+    """Draw the geometry, trajectory and error parameters of scenario ``seed``.
+
+    rate_scale multiplies every sensor's sample rate; it draws nothing (same scenario)."""
     g, traj_rng = np.random.default_rng(seed).spawn(2)
     origin = sn.Geo(round(float(_sign(g) * g.uniform(20, 60)), 6),
                     round(float(g.uniform(-180, 180)), 6), round(float(g.uniform(0, 300)), 1))
@@ -160,7 +174,8 @@ def draw_scenario(seed: int, duration: float) -> Scenario:
         th_unit=("mil", "deg", "rad")[seed % 3], th_rate=float(g.choice([20.0, 25.0])),
         th_windows=th_windows, ship=ship, lever=lever, s1_sigma=s1_sigma, ins_sigma=ins_sigma,
         g1_sigma=g1_sigma, g1_dropouts=drop, g1_burst=burst, stations=stations,
-        mistram_sigma=_r(g.uniform(0.03, 0.1), 3), wild_fraction=g.uniform(0.005, 0.01))
+        mistram_sigma=_r(g.uniform(0.03, 0.1), 3), wild_fraction=g.uniform(0.005, 0.01),
+        rate_scale=float(rate_scale))
 
 
 def _r(x: float, nd: int = 2) -> float:
@@ -178,9 +193,7 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True) -> dict[str, np
     # faults/noise split again) -> each file depends only on the seed and its own stream
     timing, nz = np.random.default_rng(sc.seed).spawn(3 + SENSOR_IDS.index(sid))[-1].spawn(2)
     t0, dur, off = sc.t0, sc.duration, sc.offset(sid)
-    rate = {"R1": 20.0, "TH1": sc.th_rate, "S1": 10.0, "SHIP_INS": 50.0, "G1": 10.0,
-            "MISTRAM": 20.0}[sid]
-    t_true = sn.sample_times(timing, t0, dur, rate)
+    t_true = sn.sample_times(timing, t0, dur, sc.rate(sid))
     if sid == "G1":
         t_true = t_true[~sn.in_intervals(t_true, sc.g1_dropouts)]
     t_file, t_meas = sn.file_times(t_true, off)
@@ -251,8 +264,9 @@ def truth_columns(sc: Scenario) -> dict[str, np.ndarray]:
 def config_text(sc: Scenario, ids: list[str]) -> str:
     """scenario.toml text with only the data contract's sections and keys."""
     o = sc.origin
+    scaled = "" if sc.rate_scale == 1.0 else f", sample rates x{sc.rate_scale:g}"
     lines = [f"# simulated scenario (rangeproc.simulate), seed {sc.seed}, "
-             f"duration {sc.duration:g} s; truth in truth.csv", "",
+             f"duration {sc.duration:g} s{scaled}; truth in truth.csv", "",
              "[range]", f"origin = {_geo_toml(o)}", "", "[output]", 'dir = "out"',
              "rate_hz = 10.0", "", "[[targets]]", 'id = "T1"']
     deg = 180.0 / math.pi
@@ -322,19 +336,25 @@ def parse_sensor_list(sensors: str) -> list[str]:
 
 
 def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
-                      sensors: str = "all", noise: bool = True) -> Path:
+                      sensors: str = "all", noise: bool = True,
+                      rate_scale: float = 1.0) -> Path:
     """Write sensor files, ``scenario.toml`` and ``truth.csv`` into out_dir; return the config.
 
     duration: seconds of flight (>= 20). sensors: 'all' or e.g. 'R1,S1,SHIP_INS,G1'.
+    rate_scale: factor in (0, 20] on every sensor's sample rate (INS included), e.g. for
+    benchmarks; rows grow linearly with it, truth.csv stays at 100 Hz.
     noise=False writes exact measurements (no noise, wild points, bursts or empty cells; gaps,
     coverage limits, latency and row shuffling are kept) for tests.
     """
     if not duration >= 20.0 or not math.isfinite(duration):
         raise ConfigError(f"simulate: duration={duration!r}: must be a number >= 20 s")
+    if not 0.0 < rate_scale <= MAX_RATE_SCALE:  # also rejects NaN
+        raise ConfigError(f"simulate: rate_scale={rate_scale!r}: must be a number in "
+                          f"(0, {MAX_RATE_SCALE:g}]")
     ids = parse_sensor_list(sensors)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    sc = draw_scenario(int(seed), float(duration))
+    sc = draw_scenario(int(seed), float(duration), float(rate_scale))
     for sid in ids:
         cols = build_columns(sc, sid, noise=noise)
         atomic_write_table(out_dir / FILES[sid], cols)

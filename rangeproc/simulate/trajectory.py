@@ -46,7 +46,7 @@ class Pulses:
     amp: np.ndarray
 
     @staticmethod
-    def from_list(rows: list[tuple[float, float, float, float]]) -> "Pulses":
+    def from_list(rows: list[tuple[float, float, float, float]]) -> Pulses:
         arr = np.asarray(rows, dtype=float).reshape(-1, 4)
         order = np.argsort(arr[:, 0], kind="stable")
         arr = arr[order]

@@ -1,0 +1,47 @@
+"""The optional [processing] section: defaults, the filter choice, and its errors."""
+from pathlib import Path
+
+import pytest
+
+from rangeproc.config import ProcessingSettings, load_config
+from rangeproc.errors import ConfigError
+
+BASE = """
+[range]
+origin = { lat = 34.9, lon = -117.9, height = 700.0 }
+
+[[sensors]]
+id = "G1"
+kind = "gps"
+file = "G1.csv"
+"""
+
+
+def _write(tmp_path: Path, extra: str) -> Path:
+    path = tmp_path / "c.toml"
+    path.write_text(BASE + extra)
+    return path
+
+
+def test_defaults_without_processing_section(tmp_path):
+    cfg = load_config(_write(tmp_path, ""))
+    assert cfg.processing == ProcessingSettings()
+    assert cfg.processing.filter == "ekf"
+
+
+def test_ukf_selected(tmp_path):
+    cfg = load_config(_write(tmp_path, '\n[processing]\nfilter = "ukf"\nnoise_passes = 1\n'))
+    assert cfg.processing.filter == "ukf"
+    assert cfg.processing.noise_passes == 1
+
+
+@pytest.mark.parametrize("extra, key", [
+    ('\n[processing]\nfilter = "pf"\n', "processing.filter"),
+    ("\n[processing]\nfilter = 3\n", "processing.filter"),
+    ("\n[processing]\nfiltre = \"ukf\"\n", "filtre"),
+])
+def test_processing_errors_name_the_key(tmp_path, extra, key):
+    with pytest.raises(ConfigError) as exc:
+        load_config(_write(tmp_path, extra))
+    msg = str(exc.value)
+    assert "c.toml" in msg and key in msg and "\n" not in msg
