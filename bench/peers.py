@@ -1,5 +1,5 @@
-"""Kernel benchmark helpers: one radar data set, and the same EKF + RTS smoother run by
-rangeproc, FilterPy and Stone Soup.
+"""Kernel benchmark helpers: one radar data set, and the same EKF + RTS smoother, and the same
+UKF + smoother, run by rangeproc, FilterPy and Stone Soup.
 
 The data set (:func:`radar_data`): one fixed radar at the range origin measuring slant range,
 azimuth and elevation of a target flying a climbing circle of 20 km radius around it at
@@ -22,6 +22,7 @@ variance unchanged), and its results are permuted back.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 from dataclasses import dataclass
@@ -34,6 +35,9 @@ from rangeproc.models.motion import ca_transition_py
 DT = 1.0 / 16.0                        #: s between rows
 SIGMA = np.array([5.0, 2e-4, 2e-4])    #: range (m), azimuth (rad), elevation (rad)
 Q_PSD = 1.0                            #: white-jerk PSD of the filter (m^2/s^5)
+#: UKF sigma points [alpha, beta, kappa] (seed 001: kappa = 3 - n, n = 9). All three
+#: implementations use lambda = alpha^2 (n + kappa) - n, so the points and weights are the same.
+UKF_PARAMS = np.array([1.0, 2.0, -6.0])
 #: Stone Soup state index -> rangeproc state index (per-axis vs per-derivative ordering)
 SS_ORDER = np.array([3 * deriv + axis for axis in range(3) for deriv in range(3)])
 SS_BACK = np.argsort(SS_ORDER)         #: rangeproc state index -> Stone Soup state index
@@ -94,8 +98,10 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # rangeproc. ADAPT HERE when the kernel signatures change: rangeproc_inputs builds the arrays
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
-def rangeproc_inputs(d: RadarData) -> tuple:
-    """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off."""
+def rangeproc_inputs(d: RadarData, method: int = 0) -> tuple:
+    """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
+    ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
+    sigma points :data:`UKF_PARAMS`."""
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -106,12 +112,14 @@ def rangeproc_inputs(d: RadarData) -> tuple:
     return (d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64), z, sigma,
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
-            np.empty((0, 9)), 0, np.array([1.0, 2.0, -6.0]))
+            np.empty((0, 9)), int(method), UKF_PARAMS.copy())
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The timed call: EKF forward pass + RTS smoother (without the EM process-noise statistic,
-    which the peers do not compute). Returns (xf, xs, Ps packed)."""
+    """The timed call: forward pass (EKF or UKF update, as ``args`` say) + RTS smoother
+    (without the EM process-noise statistic, which the peers do not compute). The motion
+    model is linear, so the unscented RTS smoother is this same RTS smoother. Returns
+    (xf, xs, Ps packed)."""
     from rangeproc.estimation.forward import kalman_forward
     from rangeproc.estimation.rts import rts_smooth
     epoch_t, q_steps = args[0], args[11]
@@ -247,18 +255,23 @@ def stonesoup_run(inputs: tuple) -> Estimates:
     smooth with Stone Soup's KalmanSmoother, which reuses the stored predictions."""
     from stonesoup.predictor.kalman import ExtendedKalmanPredictor
     from stonesoup.smoother.kalman import KalmanSmoother
+    tm, mm, _, _ = inputs
+    return _stonesoup_track(inputs, ExtendedKalmanPredictor(tm), _stonesoup_updater(mm),
+                            KalmanSmoother(tm))
+
+
+def _stonesoup_track(inputs: tuple, predictor, updater, smoother) -> Estimates:
+    """The timed Stone Soup loop: predict/update per detection into a Track, then smooth."""
     from stonesoup.types.hypothesis import SingleHypothesis
     from stonesoup.types.track import Track
-    tm, mm, prior, dets = inputs
-    predictor = ExtendedKalmanPredictor(tm)
-    updater = _stonesoup_updater(mm)
+    _, _, prior, dets = inputs
     track = Track()
     state = prior
     for det in dets:
         pred = predictor.predict(state, timestamp=det.timestamp)
         state = updater.update(SingleHypothesis(pred, det))
         track.append(state)
-    smoothed = KalmanSmoother(tm).smooth(track)
+    smoothed = smoother.smooth(track)
     xf = np.array([np.asarray(s.state_vector, float).ravel() for s in track])[:, SS_BACK]
     xs = np.array([np.asarray(s.state_vector, float).ravel() for s in smoothed])[:, SS_BACK]
     var = np.array([np.diag(s.covar)[[0, 3, 6]] for s in smoothed])
@@ -281,10 +294,99 @@ def _stonesoup_updater(mm):
 
 
 # ---------------------------------------------------------------------------------------------
-# UKF row: not benchmarked yet (rangeproc has no UKF). When it exists, add rangeproc's UKF +
-# smoother here with FilterPy's UnscentedKalmanFilter and Stone Soup's UnscentedKalmanUpdater/
-# UnscentedKalmanSmoother as peers, and a row in bench.py's table.
+# UKF row: the same data and CA model with an unscented measurement update (sigma points
+# UKF_PARAMS), then the smoother. The transition is linear, so every unscented prediction and
+# the unscented RTS smoother reduce to the linear ones (up to round-off): rangeproc runs its
+# RTS smoother, FilterPy its UnscentedKalmanFilter.rts_smoother, Stone Soup its
+# UnscentedKalmanSmoother.
 # ---------------------------------------------------------------------------------------------
+def rae_mean(sigmas: np.ndarray, wm: np.ndarray) -> np.ndarray:
+    """Weighted mean (3,) of (2n+1, 3) [R, A, E] sigma points with the azimuths unwrapped
+    around the central point's, as rangeproc does (FilterPy's ``z_mean_fn``)."""
+    out = wm @ sigmas
+    a0 = sigmas[0, 1]
+    out[1] = a0 + wm @ wrap(sigmas[:, 1] - a0)
+    return out
+
+
+def filterpy_ukf_run(d: RadarData, redraw: bool = False) -> Estimates:
+    """FilterPy UnscentedKalmanFilter (MerweScaledSigmaPoints with :data:`UKF_PARAMS`, the
+    same ``rae_h``, wrapped azimuth residual and :func:`rae_mean`): update at the prior's
+    epoch, then predict/update per row, then its unscented ``rts_smoother``.
+
+    ``redraw=False`` is FilterPy as shipped. ``redraw=True`` sets ``sigmas_f`` to sigma points
+    of the predicted moments before every update, as rangeproc (and the test
+    tests/estimation/test_ukf.py) does: FilterPy 1.4.x's ``update`` reused the points
+    propagated through ``fx`` in ``predict`` (which do not carry Q); FilterPy 2.0's ``predict``
+    redraws them itself, so there the two variants are identical. Either way the first
+    update has no ``predict`` before it, and FilterPy's constructor leaves ``sigmas_f`` zero,
+    so they are drawn from the prior here.
+    """
+    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+    F, Q = ca_transition_py(DT, d.q)
+    alpha, beta, kappa = (float(v) for v in UKF_PARAMS)
+    points = MerweScaledSigmaPoints(9, alpha=alpha, beta=beta, kappa=kappa)
+    ukf = UnscentedKalmanFilter(dim_x=9, dim_z=3, dt=DT, hx=rae_h, fx=lambda x, dt: F @ x,
+                                points=points, z_mean_fn=rae_mean, residual_z=rae_residual)
+    ukf.x, ukf.P, ukf.Q, ukf.R = d.x0.copy(), d.P0.copy(), Q, np.diag(SIGMA ** 2)
+    ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
+    n = len(d.t)
+    xf, Pf = np.empty((n, 9)), np.empty((n, 9, 9))
+    for k in range(n):
+        if k:
+            ukf.predict()
+            if redraw:
+                ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
+        ukf.update(d.z[k])
+        xf[k], Pf[k] = ukf.x, ukf.P
+    xs, Ps, _ = ukf.rts_smoother(xf, Pf)
+    return Estimates(xf, xs, Ps[:, [0, 1, 2], [0, 1, 2]])
+
+
+def stonesoup_ukf_run(inputs: tuple) -> Estimates:
+    """Stone Soup UnscentedKalmanPredictor / UnscentedKalmanUpdater per detection, then
+    UnscentedKalmanSmoother, all with :data:`UKF_PARAMS` (``stonesoup.functions.gauss2sigma``
+    uses the same ``lambda = alpha^2 (n + kappa) - n`` and weights as rangeproc and FilterPy;
+    the smoother's own default is kappa = 0, so it is passed explicitly). Its updater draws
+    sigma points from the predicted moments, as rangeproc does. ``inputs`` from
+    :func:`stonesoup_inputs` (stock measurement model: the UKF needs no Jacobian). One
+    difference that is Stone Soup's own: angle means are circular
+    (``Angle.average``: atan2 of the weighted sines and cosines) where rangeproc takes the
+    weighted mean of the azimuths unwrapped around the central point."""
+    from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+    from stonesoup.smoother.kalman import UnscentedKalmanSmoother
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+    tm, mm, _, _ = inputs
+    sp = dict(zip(("alpha", "beta", "kappa"), (float(v) for v in UKF_PARAMS)))
+    return _stonesoup_track(inputs, UnscentedKalmanPredictor(tm, **sp),
+                            UnscentedKalmanUpdater(mm, **sp), UnscentedKalmanSmoother(tm, **sp))
+
+
+@contextlib.contextmanager
+def _stonesoup_unwrapped_angle_mean():
+    """Temporarily make Stone Soup average angles as rangeproc does (weighted mean of the
+    angles unwrapped around the first, the central sigma point) instead of its circular mean.
+    Only for the agreement check :func:`stonesoup_ukf_linear_mean`, never timed."""
+    from stonesoup.types.angle import Angle
+    saved = Angle.__dict__["average"]
+
+    def average(cls, angles, weights=None):
+        a = np.asarray(angles, dtype=float)
+        w = np.full(a.size, 1.0 / a.size) if weights is None else np.asarray(weights, float)
+        return cls(a[0] + w @ wrap(a - a[0]) / w.sum())
+
+    Angle.average = classmethod(average)
+    try:
+        yield
+    finally:
+        Angle.average = saved
+
+
+def stonesoup_ukf_linear_mean(inputs: tuple) -> Estimates:
+    """:func:`stonesoup_ukf_run` with rangeproc's angle mean: isolates the circular-mean
+    difference (a check, not a benchmark)."""
+    with _stonesoup_unwrapped_angle_mean():
+        return stonesoup_ukf_run(inputs)
 
 
 def agreement(ref: Estimates, other: Estimates) -> dict[str, float]:
