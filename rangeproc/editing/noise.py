@@ -12,7 +12,7 @@ Two estimators, both robust to wild points (median based):
   part (``E[res^2] = sigma^2 - H P_s H^T``), and
   a local (running-median) scale that follows noise bursts, jamming or multipath: where the
   local scale exceeds the global one by ``burst_ratio`` the row gets the local sigma (the local
-  scale is dilated over one window so the edges of a short burst are covered too). This is the
+  scale is dilated over a quarter window so the edges of a short burst are covered too). This is the
   residual-RMS adaptation of seed 000 sec. 2.3.1, done as a smoother-based, windowed estimate.
   Finally each row is down-weighted by Huber's rule (weight ``min(1, k / |u|)`` for the
   normalised residual ``u``, i.e. sigma times ``sqrt(|u| / k)``), the M-estimation answer to
@@ -109,7 +109,9 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
                 local = MAD_TO_SIGMA * median_filter(np.abs(r[idx]), size=window, mode="nearest")
                 local = np.sqrt(local ** 2 + hph[rows[idx], c])
                 local = np.where(local > burst_ratio * robust, local, 0.0)
-                local = maximum_filter1d(local, size=window, mode="nearest")
+                # dilate by a quarter window: enough to cover the edge rows a centred running
+                # median misses, without spreading burst sigmas far onto normal rows
+                local = maximum_filter1d(local, size=max(1, window // 4), mode="nearest")
                 burst[idx] = local > 0.0
                 sig[idx[local > 0.0]] = local[local > 0.0]
             glob = _clipped_rms(r, hph[rows, c], used_c & ~burst, robust)

@@ -118,13 +118,13 @@ def _nis_panel(ax: Axes, v: SensorView, t0: float) -> None:
 def _hist_panel(ax: Axes, v: SensorView) -> None:
     edges = np.linspace(-Z_MAX, Z_MAX, Z_BINS + 1)
     width = edges[1] - edges[0]
-    used = v.used
+    used_comp = v.used_comp
     zz = np.linspace(-Z_MAX, Z_MAX, 201)
     ax.plot(zz, stats.norm.pdf(zz), color="k", lw=1.2, ls="--", label="N(0,1)")
     any_drawn = False
     for j, comp in enumerate(v.components):
         with np.errstate(divide="ignore", invalid="ignore"):
-            z = v.residual[used, j] / v.sigma[used, j]
+            z = v.residual[used_comp[:, j], j] / v.sigma[used_comp[:, j], j]
         z = z[np.isfinite(z)]
         if z.size == 0:
             continue
