@@ -282,7 +282,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         nis (N,) row innovation chi-square, dof (N,) int64 measured components,
         rejected (N,) int64 bit mask of the components the gate rejected (bit c = component
         c), loglik (Gaussian log-likelihood of the whitened innovations, rejected rows counted
-        at the gate), n_resets (int).
+        at the gate), n_resets (int), ll_rows (N,) each row's contribution to loglik.
     """
     E = epoch_t.shape[0]
     N = meas_epoch.shape[0]
@@ -292,6 +292,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     nis = np.full(N, np.nan)
     dof = np.zeros(N, dtype=np.int64)
     rejected = np.zeros(N, dtype=np.int64)
+    ll_rows = np.zeros(N)
     x = x0.copy()
     P = P0.copy()
     h = np.empty(N_COMPONENTS)
@@ -335,6 +336,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             if m == 0:
                 i += 1
                 continue
+            ll_before = loglik
             if method == EKF:
                 ekf_moments(model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, h, H, y6, y, C,
@@ -385,10 +387,11 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                             P[a, b] *= factor
                     consecutive[:] = 0
                     n_resets += 1
+            ll_rows[i] = loglik - ll_before
             i += 1
         for a in range(n):
             if not math.isfinite(x[a]):
                 raise FloatingPointError("non-finite state in the Kalman filter")
         xf[k] = x
         pack(P, Pf[k])
-    return xf, Pf, nis, dof, rejected, loglik, n_resets
+    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows

@@ -1,13 +1,14 @@
 """Process-noise estimation: a global start by maximum likelihood, then local EM updates.
 
-1. :func:`select_process_noise`: the white-jerk PSD q (m^2/s^5) with the largest innovation
-   likelihood over a logarithmic grid, evaluated on an evenly decimated subset of the rows
-   (q is a property of the target's motion, so its ML estimate does not need every row; the
-   subset keeps the search cheap on hour-long sorties).
-2. :func:`local_process_noise`: a time-varying q from the smoother's EM statistic (see
-   ``rts_smooth``): within a sliding window, ``q = sum E[(da)^2] / sum dt``. A manoeuvring
-   stretch gets a large q and a quiet cruise a small one, which is what keeps the smoothed
-   uncertainty honest through turns, pull-ups and speed changes.
+1. :func:`start_process_noise`: the white-jerk PSD q (m^2/s^5) with the largest innovation
+   likelihood over a logarithmic grid, globally and in sliding windows (a local profile: boost
+   and turns get a large q, cruise and coast a small one), evaluated on an evenly decimated
+   subset of the rows (q is a property of the target's motion, so its estimate does not need
+   every row; the subset keeps the search cheap on hour-long sorties).
+2. :func:`local_process_noise`: the refinement from the smoother's EM statistic (see
+   ``rts_smooth``): within a sliding window, ``q = sum E[(da)^2] / sum dt``. This is what keeps
+   the smoothed uncertainty honest through turns, pull-ups and speed changes; EM alone moves
+   slowly from a poor start when the data constrain the acceleration weakly, hence step 1.
 """
 from __future__ import annotations
 
@@ -23,35 +24,68 @@ EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
 MAX_SEARCH_ROWS = 100_000
 
 
-def select_process_noise(batch, x0: np.ndarray, P0: np.ndarray, gate: np.ndarray,
-                         q_grid: tuple[float, ...], reset_after: int,
-                         reset_inflation: float) -> float:
-    """The white-jerk PSD q (m^2/s^5) from ``q_grid`` with the largest innovation likelihood.
+def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarray,
+                        gate: np.ndarray, q_grid: tuple[float, ...], reset_after: int,
+                        reset_inflation: float, *,
+                        window: float = 4.0) -> tuple[float, np.ndarray]:
+    """Starting white-jerk PSD: a global value and a local profile, by innovation likelihood.
 
-    The likelihood is the EKF's prediction-error (Gaussian) log-likelihood, with rejected rows
-    counted at the gate so that a q which rejects more data is not rewarded. The maximum is
-    refined by a parabola through the best grid point and its neighbours in log q.
+    The filter runs once per candidate q over an evenly decimated subset of the rows (at most
+    ``MAX_SEARCH_ROWS``); each row's log-likelihood contribution is kept (rejected rows count
+    at the gate, so a q that rejects more data is not rewarded).
+
+    Returns:
+        q_global: the q maximising the total likelihood (refined by a parabola in log q);
+        q_epochs: (E,) per-epoch profile on ``epoch_t``: in a sliding ``window`` (s) the
+        likelihood-weighted mean of log q over the candidates (a local Bayesian model average
+        with a flat prior on the grid: a clear winner dominates, indistinguishable candidates
+        average), shrunk half-way toward ``q_global`` in log q, and dilated over half a window
+        so a manoeuvre's onset is covered.
     """
     step = max(1, int(np.ceil(len(batch.t) / MAX_SEARCH_ROWS)))
     rows = np.arange(0, len(batch.t), step)
     t = batch.t[rows]
-    epoch_t = np.unique(t)
-    meas_epoch = np.searchsorted(epoch_t, t).astype(np.int64)
+    sub_epochs = np.unique(t)
+    meas_epoch = np.searchsorted(sub_epochs, t).astype(np.int64)
     no_lin = np.empty((0, x0.shape[0]))
     grid = np.asarray(q_grid, dtype=float)
-    ll = np.empty(len(grid))
-    for i, q in enumerate(grid):
-        ll[i] = kalman_forward(epoch_t, meas_epoch, batch.model[rows], batch.z[rows],
-                            batch.sigma[rows], batch.s[rows], batch.sv[rows], batch.Qr[rows],
-                            batch.sensor[rows], x0, P0, np.full(len(epoch_t), float(q)), gate,
-                            reset_after, reset_inflation, no_lin, EKF, EKF_UNUSED_UKF)[5]
-    best = int(np.argmax(ll))
+    ll_rows = np.empty((len(grid), len(rows)))
+    for g, q in enumerate(grid):
+        ll_rows[g] = kalman_forward(
+            sub_epochs, meas_epoch, batch.model[rows], batch.z[rows], batch.sigma[rows],
+            batch.s[rows], batch.sv[rows], batch.Qr[rows], batch.sensor[rows], x0, P0,
+            np.full(len(sub_epochs), float(q)), gate, reset_after, reset_inflation, no_lin,
+            EKF, EKF_UNUSED_UKF)[7]
+    total = ll_rows.sum(axis=1)
+    best = int(np.argmax(total))
+    q_global = float(grid[best])
     if 0 < best < len(grid) - 1:
         lq = np.log(grid[best - 1:best + 2])
-        a, b, _ = np.polyfit(lq, ll[best - 1:best + 2], 2)
+        a, b, _ = np.polyfit(lq, total[best - 1:best + 2], 2)
         if a < 0:
-            return float(np.exp(np.clip(-b / (2 * a), lq[0], lq[2])))
-    return float(grid[best])
+            q_global = float(np.exp(np.clip(-b / (2 * a), lq[0], lq[2])))
+    # windowed likelihoods per candidate, by cumulative sums over the time-ordered rows
+    cs = np.concatenate([np.zeros((len(grid), 1)), np.cumsum(ll_rows, axis=1)], axis=1)
+    lo = np.searchsorted(t, t - 0.5 * window, side="left")
+    hi = np.searchsorted(t, t + 0.5 * window, side="right")
+    win = cs[:, hi] - cs[:, lo]                                   # (G, M)
+    w = np.exp(win - win.max(axis=0))                             # windowed posterior weights
+    log_q_rows = (w * np.log(grid)[:, None]).sum(axis=0) / w.sum(axis=0)
+    # shrink half-way (in log q) toward the global value: the forward filter's windowed
+    # likelihood over-reacts where a manoeuvre is not white jerk (a coordinated turn rotates
+    # the acceleration steadily); the EM passes refine from there with the smoothed data
+    log_q = 0.5 * (np.interp(epoch_t, t, log_q_rows) + np.log(q_global))
+    q_epochs = dilate_in_time(epoch_t, np.exp(log_q), 0.5 * window)
+    return q_global, q_epochs
+
+
+def dilate_in_time(epoch_t: np.ndarray, values: np.ndarray, span: float) -> np.ndarray:
+    """Running maximum of ``values`` (E,) over ``span`` seconds (width from the median step)."""
+    if len(epoch_t) < 3:
+        return values
+    med = float(np.median(np.diff(epoch_t)))
+    width = max(1, int(round(span / max(med, 1e-9))))
+    return maximum_filter1d(values, size=width, mode="nearest")
 
 
 def local_process_noise(epoch_t: np.ndarray, em: np.ndarray, *, window: float = 2.0,
@@ -72,8 +106,4 @@ def local_process_noise(epoch_t: np.ndarray, em: np.ndarray, *, window: float = 
     hi = np.searchsorted(epoch_t, epoch_t + 0.5 * window, side="right")
     span = cs_dt[hi] - cs_dt[lo]
     q = np.where(span > 0, (cs_em[hi] - cs_em[lo]) / np.maximum(span, 1e-12), floor)
-    # dilate in time: width in epochs from the median epoch spacing
-    med = float(np.median(dt[1:])) if E > 2 else window
-    width = max(1, int(round(window / max(med, 1e-9))))
-    q = maximum_filter1d(q, size=width, mode="nearest")
-    return np.maximum(q, floor)
+    return np.maximum(dilate_in_time(epoch_t, q, window), floor)

@@ -30,7 +30,7 @@ from rangeproc.errors import NumericalError
 from rangeproc.estimation.forward import EKF, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.estimation.tuning import local_process_noise, select_process_noise
+from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.initialise import initial_state
 
@@ -58,7 +58,7 @@ class EstimatorSettings:
     noise_passes: int = 2
     adapt_noise: bool = True
     process_noise: float | None = None
-    q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 4, 7))
+    q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 5, 8))
     q_window: float = 2.0
     reset_after: int = 50
     reset_inflation: float = 100.0
@@ -126,7 +126,7 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, rej, _, resets = kalman_forward(
+        xf, Pf, nis, dof, rej, _, resets, _ = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
             st.method, np.asarray(st.ukf, dtype=np.float64))
@@ -154,10 +154,10 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     if settings.process_noise is not None:
         q = np.full(len(epoch_t), settings.process_noise)
     else:
-        q0 = select_process_noise(batch, x0, P0, gate, settings.q_grid, settings.reset_after,
-                                  settings.reset_inflation)
-        log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood)", q0)
-        q = np.full(len(epoch_t), q0)
+        q0, q = start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
+                                    settings.reset_after, settings.reset_inflation)
+        log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
+                 float(np.median(q)))
     x_lin = np.empty((0, x0.shape[0]))
     out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
     tick(1, "pass 1")

@@ -92,7 +92,7 @@ def test_gate_rejects_wild_points_and_carries_prediction():
     z[wild, 0] += rng.choice([-1, 1], 40) * rng.uniform(200, 500, 40)
     t = np.arange(len(truth)) * dt
     P0 = np.diag([100.0] * 3 + [400.0] * 3 + [25.0] * 3)
-    xf, Pf, nis, dof, rej, ll, resets = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
+    xf, Pf, nis, dof, rej, ll, resets, _ = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
                                               reset_after=50)
     # the wild range is rejected, the row's good angles are still used (component gating)
     assert ((rej[wild] & 1) == 1).all()
@@ -121,7 +121,7 @@ def test_100k_step_radar_only_run_stays_consistent():
     sigma[:, :3] = sig
     t = np.arange(n) * dt
     P0 = np.diag([100.0] * 3 + [100.0] * 3 + [1.0] * 3)
-    xf, Pf, nis, dof, acc, ll, resets = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+    xf, Pf, nis, dof, acc, ll, resets, _ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
     assert np.isfinite(xf).all()
     # filtered NEES (position) over the second half: mean within the chi-square band
     P = np.empty((9, 9))
