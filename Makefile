@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
-SEEDS ?= 2 3 4
+SEEDS ?= 1 2 3 4 5 6
 
 .PHONY: install demo test bench bench-quick reproduce sample-data lint clean
 
