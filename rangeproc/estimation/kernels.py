@@ -21,12 +21,6 @@ N_OBSERVED = 6
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def ca_f1(dt: float) -> tuple[float, float]:
-    """The two distinct non-trivial entries of F1: ``(dt, dt^2 / 2)``."""
-    return dt, 0.5 * dt * dt
-
-
-@njit(cache=True, error_model="numpy", inline="always")
 def predict_state(x: np.ndarray, dt: float) -> None:
     """``x <- F x`` for the CA block (in place); extra states unchanged."""
     h2 = 0.5 * dt * dt
@@ -50,6 +44,23 @@ def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
             out[6 + a, j] = p2
         for i in range(9, n):
             out[i, j] = P[i, j]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
+    """``out <- F^T B`` (n, n) using the Kronecker structure of F (F^T is lower triangular)."""
+    n = B.shape[0]
+    h2 = 0.5 * dt * dt
+    for j in range(n):
+        for a in range(3):
+            b0 = B[a, j]
+            b1 = B[3 + a, j]
+            b2 = B[6 + a, j]
+            out[a, j] = b0
+            out[3 + a, j] = dt * b0 + b1
+            out[6 + a, j] = h2 * b0 + dt * b1 + b2
+        for i in range(9, n):
+            out[i, j] = B[i, j]
 
 
 @njit(cache=True, error_model="numpy", inline="always")

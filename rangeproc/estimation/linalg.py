@@ -11,10 +11,6 @@ import numpy as np
 from numba import njit
 
 
-def packed_size(n: int) -> int:
-    """Number of doubles of a packed symmetric (n, n) matrix."""
-    return n * (n + 1) // 2
-
 
 @njit(cache=True, error_model="numpy", inline="always")
 def pack(P: np.ndarray, out: np.ndarray) -> None:
@@ -82,14 +78,3 @@ def chol_solve_inplace(L: np.ndarray, m: int, B: np.ndarray, ncols: int) -> None
         inv = 1.0 / L[i, i]
         for c in range(ncols):
             B[i, c] *= inv
-
-
-@njit(cache=True, error_model="numpy")
-def symmetrize(P: np.ndarray) -> None:
-    """Replace ``P`` by ``(P + P^T) / 2`` in place."""
-    n = P.shape[0]
-    for i in range(n):
-        for j in range(i):
-            v = 0.5 * (P[i, j] + P[j, i])
-            P[i, j] = v
-            P[j, i] = v

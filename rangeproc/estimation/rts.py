@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.kernels import add_q, left_f, predict_cov, predict_state
+from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
 
@@ -138,19 +138,3 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
         P_next, P_f = P_f, P_next                      # smoothed k becomes "next"
     return xs, Ps, em
 
-
-@njit(cache=True, error_model="numpy", inline="always")
-def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
-    """``out <- F^T B`` (n, n) using the Kronecker structure of F (F^T is lower triangular)."""
-    n = B.shape[0]
-    h2 = 0.5 * dt * dt
-    for j in range(n):
-        for a in range(3):
-            b0 = B[a, j]
-            b1 = B[3 + a, j]
-            b2 = B[6 + a, j]
-            out[a, j] = b0
-            out[3 + a, j] = dt * b0 + b1
-            out[6 + a, j] = h2 * b0 + dt * b1 + b2
-        for i in range(9, n):
-            out[i, j] = B[i, j]
