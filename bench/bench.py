@@ -126,18 +126,23 @@ def first_call_child(n: int) -> None:
     print(json.dumps({"import_s": t1 - t0, "first_call_s": time.perf_counter() - t2}))
 
 
+def time_rangeproc(args: tuple, reps: int) -> tuple[float, float, list[float], peers.Estimates]:
+    """First call (compilation from the cache), then the median of ``reps`` timed calls of the
+    rangeproc kernel; returns (first_s, median_s, all times, estimates of the last call)."""
+    first_s, _ = _timed(peers.rangeproc_kernel, args)
+    times = []
+    out = None
+    for _ in range(reps):
+        s, out = _timed(peers.rangeproc_kernel, args)
+        times.append(s)
+    return first_s, statistics.median(times), times, peers.rangeproc_estimates(out)
+
+
 def kernel_bench(a: argparse.Namespace) -> dict:
     """rangeproc vs FilterPy vs Stone Soup on the same radar rows (see bench/peers.py)."""
     d = peers.radar_data(a.kernel_steps, a.seed)
     n = len(d.t)
-    args = peers.rangeproc_inputs(d)
-    first_s, _ = _timed(peers.rangeproc_kernel, args)
-    times = []
-    for _ in range(a.reps):
-        s, out = _timed(peers.rangeproc_kernel, args)
-        times.append(s)
-    rp_s = statistics.median(times)
-    rp = peers.rangeproc_estimates(out)
+    first_s, rp_s, times, rp = time_rangeproc(peers.rangeproc_inputs(d), a.reps)
     fp_s, fp = _timed(peers.filterpy_run, d, reps=a.peer_reps)
     ds = d.head(a.stonesoup_steps)
     rp_head = peers.rangeproc_estimates(peers.rangeproc_kernel(peers.rangeproc_inputs(ds)))
@@ -174,14 +179,7 @@ def ukf_bench(a: argparse.Namespace, d: peers.RadarData, ds: peers.RadarData,
     the same rows as the EKF row (Stone Soup on the prefix ``ds``)."""
     from rangeproc.estimation.forward import UKF
     n, m = len(d.t), len(ds.t)
-    args = peers.rangeproc_inputs(d, UKF)
-    first_s, _ = _timed(peers.rangeproc_kernel, args)
-    times = []
-    for _ in range(a.reps):
-        s, out = _timed(peers.rangeproc_kernel, args)
-        times.append(s)
-    rp_s = statistics.median(times)
-    rp = peers.rangeproc_estimates(out)
+    first_s, rp_s, times, rp = time_rangeproc(peers.rangeproc_inputs(d, UKF), a.reps)
     fp_s, fp = _timed(peers.filterpy_ukf_run, d, reps=a.peer_reps)
     fp_redraw_s, fp_redraw = _timed(peers.filterpy_ukf_run, d, True)
     rp_head = peers.rangeproc_estimates(
