@@ -86,15 +86,20 @@ def assemble_sensor(log: SensorLog, cfg: SensorSettings, frame: RangeFrame,
     if cfg.kind == "gps":
         a = empty_rows(n, CARTESIAN)
         lat, lon, h = log.columns["lat"], log.columns["lon"], log.columns["height"]
-        pos_ok = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(h)
+        pos_ok = np.isfinite(lat) & np.isfinite(lon)
         # Receiver-local axes: where the position is missing, borrow the nearest valid one.
         if pos_ok.any():
             idx = np.flatnonzero(pos_ok)
             near = idx[np.clip(np.searchsorted(idx, np.arange(n)), 0, len(idx) - 1)]
             rot = frame.local_rotation(lat[near], lon[near])
             a["Qr"][:] = rot
-            p = frame.to_enu(lat[pos_ok], lon[pos_ok], h[pos_ok])
+            # An empty height means the vertical was not measured. In the receiver's local
+            # ENU axes a height change only moves the point along the local normal (the u
+            # axis), so east/north do not depend on the height used for the conversion.
+            h_conv = np.where(np.isfinite(h), h, 0.0)[pos_ok]
+            p = frame.to_enu(lat[pos_ok], lon[pos_ok], h_conv)
             a["z"][pos_ok, :3] = np.einsum("nij,nj->ni", rot[pos_ok], p)
+            a["z"][pos_ok & ~np.isfinite(h), 2] = np.nan
         for i, name in enumerate(("ve", "vn", "vu")):
             a["z"][:, 3 + i] = log.columns[name]
         sig = cfg.sigma
