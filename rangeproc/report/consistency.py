@@ -15,7 +15,20 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from scipy import stats
 
-from rangeproc.report.common import CYCLE, KIND_COLORS, SensorView, new_figure, t0_note, time_label
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from rangeproc.report.common import (
+    CYCLE,
+    KIND_COLORS,
+    REJECT_COLOR,
+    SensorView,
+    break_gaps,
+    log_axis,
+    new_figure,
+    t0_note,
+    time_label,
+)
 
 #: Windows per sensor aimed at (window length W = rows / this, clipped to the limits below).
 TARGET_WINDOWS = 400
@@ -24,20 +37,29 @@ MIN_WINDOW, MAX_WINDOW = 10, 2_000
 Z_MAX, Z_BINS = 5.0, 50
 
 
-def window_nis(time: np.ndarray, nis: np.ndarray, dof: np.ndarray,
-               window: int) -> tuple[np.ndarray, ...]:
+def window_nis(time: np.ndarray, nis: np.ndarray, dof: np.ndarray, window: int, *,
+               gap: float | None = None) -> tuple[np.ndarray, ...]:
     """Mean NIS over consecutive windows of ``window`` rows and its chi-square 95 % band.
 
-    time, nis, dof: (N,) of the rows to use (finite nis, dof > 0), time-ordered.
+    time, nis, dof: (N,) of the rows to use (finite nis, dof > 0), time-ordered. gap: a time
+    step longer than this (s) ends a window early, so no window spans a data gap.
     Returns (t_mid (B,), mean_nis (B,), expected (B,) = mean dof, lo (B,), hi (B,)).
-    The last window takes the remainder rows (fewer than ``2 * window``).
+    The last window of a stretch takes the remainder rows (fewer than ``2 * window``).
     """
     n = time.size
     if n == 0:
         e = np.zeros(0)
         return e, e, e, e, e
-    nb = max(n // window, 1)
-    starts = np.arange(nb) * window
+    seg_first = np.zeros(1, dtype=np.int64)
+    if gap is not None:
+        seg_first = np.concatenate([[0], np.flatnonzero(np.diff(time) > gap) + 1])
+    seg = np.zeros(n, dtype=np.int64)
+    seg[seg_first[1:]] = 1
+    seg = np.cumsum(seg)
+    seg_len = np.diff(np.append(seg_first, n))
+    pos = np.arange(n) - seg_first[seg]
+    win = np.minimum(pos // window, np.maximum(seg_len[seg] // window - 1, 0))
+    starts = np.flatnonzero(np.concatenate([[True], (np.diff(seg) != 0) | (np.diff(win) != 0)]))
     counts = np.diff(np.append(starts, n)).astype(float)
     s_nis = np.add.reduceat(nis, starts)
     s_dof = np.add.reduceat(dof.astype(float), starts)
@@ -50,14 +72,16 @@ def window_nis(time: np.ndarray, nis: np.ndarray, dof: np.ndarray,
 def plot_consistency(views: Sequence[SensorView], t0: float) -> Figure:
     """Draw the consistency figure: one row per sensor (times relative to t0, s)."""
     nrow = max(len(views), 1)
-    fig = new_figure(14.0, max(3.8, 1.3 + 1.75 * nrow))
-    gs = fig.add_gridspec(nrow, 2, width_ratios=(3.2, 1.0), left=0.07, right=0.985,
-                          top=1.0 - 0.85 / fig.get_figheight(),
-                          bottom=0.6 / fig.get_figheight(), wspace=0.14, hspace=0.3)
+    fig = new_figure(14.0, max(3.8, 1.45 + 1.8 * nrow))
+    height = fig.get_figheight()
+    top = 1.0 - 1.05 / height
+    gs = fig.add_gridspec(nrow, 2, width_ratios=(3.2, 1.0), left=0.07, right=0.985, top=top,
+                          bottom=0.6 / height, wspace=0.12, hspace=0.38)
     fig.suptitle("Consistency: windowed mean NIS vs chi-square 95 % band, and normalised "
                  "residuals vs N(0,1)  (used rows only)", fontsize=12, fontweight="bold",
                  y=1.0 - 0.12 / fig.get_figheight(), va="top")
     fig.text(0.995, 0.005, t0_note(t0), ha="right", va="bottom", fontsize=7, color="0.35")
+    _legend(fig, top + 0.28 / height)
     ax_t0: Axes | None = None
     for i, v in enumerate(views):
         ax_t = fig.add_subplot(gs[i, 0], sharex=ax_t0)
@@ -91,28 +115,32 @@ def _nis_panel(ax: Axes, v: SensorView, t0: float) -> None:
         ax.set_yticks([])
         return
     w = int(np.clip(n // TARGET_WINDOWS, MIN_WINDOW, MAX_WINDOW))
-    t_mid, mean, expect, lo, hi = window_nis(v.time[ok], v.nis[ok], dof[ok], w)
-    x = t_mid - t0
-    ax.fill_between(x, lo, hi, color="0.8", lw=0, step="mid", label="95 % band")
-    ax.step(x, expect, where="mid", color="0.35", lw=0.8, ls="--", label="expected (= dof)")
+    t_ok = v.time[ok]
+    steps = np.diff(t_ok)
+    steps = steps[steps > 0]
+    # a data gap longer than a window's duration ends the window
+    gap = w * float(np.median(steps)) if steps.size else None
+    t_mid, mean, expect, lo, hi = window_nis(t_ok, v.nis[ok], dof[ok], w, gap=gap)
     outside = (mean < lo) | (mean > hi)
-    ax.plot(x, mean, "-", color=color, lw=1.0, marker="." if x.size < 60 else None, ms=4,
-            label=f"mean NIS, window {w} rows")
-    ax.plot(x[outside], mean[outside], ls="none", marker="o", ms=2.5, color="#d62728",
-            label="outside band")
+    xg, band = break_gaps(t_mid - t0, np.column_stack([lo, hi, expect, mean]))
+    ax.fill_between(xg, band[:, 0], band[:, 1], color="0.82", lw=0, step="mid")
+    ax.step(xg, band[:, 2], where="mid", color="0.3", lw=0.8, ls="--")
+    ax.plot(xg, band[:, 3], "-", color=color, lw=1.0, marker="." if xg.size < 60 else None,
+            ms=4)
+    ax.plot(t_mid[outside] - t0, mean[outside], ls="none", marker="o", ms=2.8,
+            color=REJECT_COLOR, zorder=3)
     pos = np.concatenate([mean[mean > 0], lo[lo > 0], hi])
-    if pos.size and np.isfinite(pos).any():
-        ax.set_yscale("log")
-        ymin = float(np.nanmin(pos)) / 1.6
-        ymax = float(np.nanmax(pos)) * 1.6
-        ax.set_ylim(ymin, ymax)
+    pos = pos[np.isfinite(pos)]
+    if pos.size:
+        log_axis(ax)
+        # at least a factor 2 either side of the expected value: mis-scaled sigmas stand out
+        ax.set_ylim(min(float(pos.min()) / 1.3, float(np.min(expect)) / 2.0),
+                    max(float(pos.max()) * 1.3, float(np.max(expect)) * 2.0))
     anees = float(v.nis[ok].sum() / dof[ok].sum())
     frac = 100.0 * float(outside.mean())
-    ax.text(0.005, 0.95, f"{v.sensor_id} ({v.kind})   NIS/dof overall {anees:.3g}   "
-            f"{frac:.0f} % of {x.size} windows outside band", transform=ax.transAxes,
-            ha="left", va="top", fontsize=8,
-            bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.7", alpha=0.85))
-    ax.legend(loc="upper right", fontsize=7, ncol=4, framealpha=0.85)
+    ax.set_title(f"{v.sensor_id} ({v.kind}):  NIS/dof overall {anees:.3g}   window {w} rows   "
+                 f"{frac:.0f} % of {mean.size:,} windows outside the 95 % band", loc="left",
+                 fontsize=8.5, pad=3)
 
 
 def _hist_panel(ax: Axes, v: SensorView) -> None:
@@ -135,9 +163,22 @@ def _hist_panel(ax: Axes, v: SensorView) -> None:
         any_drawn = True
     ax.set_xlim(-Z_MAX, Z_MAX)
     ax.set_yticks([])
+    ax.set_title(f"{v.sensor_id}: residual / σ, used", loc="left", fontsize=8.5, pad=3)
     if any_drawn:
         ax.legend(loc="upper left", fontsize=6.5, handlelength=1.2, framealpha=0.8,
                   borderaxespad=0.2)
     else:
         ax.text(0.5, 0.5, "no used residuals", transform=ax.transAxes, ha="center",
                 va="center", color="0.4")
+
+
+def _legend(fig: Figure, y: float) -> None:
+    handles = [Patch(fc="0.82", label="chi-square 95 % band of the window mean"),
+               Line2D([], [], color="0.3", ls="--", lw=0.8, label="expected = mean dof"),
+               Line2D([], [], color="0.2", lw=1.0, label="mean NIS of the window"),
+               Line2D([], [], ls="none", marker="o", ms=4, color=REJECT_COLOR,
+                      label="window outside band"),
+               Line2D([], [], color="k", ls="--", lw=1.2, label="N(0,1) density"),
+               Line2D([], [], color=CYCLE[0], lw=1.1, label="histogram per component")]
+    fig.legend(handles=handles, loc="center", bbox_to_anchor=(0.5, y), ncol=len(handles),
+               frameon=False, fontsize=8, columnspacing=1.4)

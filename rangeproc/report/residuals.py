@@ -30,6 +30,8 @@ from rangeproc.report.common import (
 SPREAD_FACTOR = 6.0
 #: Time bins of the drawn +-3 sigma envelope (per-bin maximum).
 ENVELOPE_BINS = 800
+#: A step between samples longer than this many median intervals is a gap in the band.
+GAP_SAMPLES = 3.0
 _BAND_COLOR = "#9ecae1"
 _EDGE = 0.97  # clipped points sit at this fraction of the half-height
 
@@ -40,11 +42,12 @@ def plot_residuals(view: SensorView, t0: float) -> Figure:
     measured = [j for j in range(len(view.components)) if finite[:, j].any()]
     missing = [c for j, c in enumerate(view.components) if j not in measured]
     npan = max(len(measured), 1)
-    fig = new_figure(13.0, max(3.6, 1.35 + 2.05 * npan))
-    top = 1.0 - 1.05 / fig.get_figheight()
+    fig = new_figure(13.0, max(3.4, 1.45 + 2.2 * npan))
+    height = fig.get_figheight()
+    top = 1.0 - 1.3 / height
     axes = fig.subplots(npan, 1, sharex=True, squeeze=False)[:, 0]
-    fig.subplots_adjust(left=0.085, right=0.975, top=top, bottom=0.55 / fig.get_figheight()
-                        + 0.03, hspace=0.12)
+    fig.subplots_adjust(left=0.085, right=0.975, top=top, bottom=0.6 / height,
+                        hspace=0.28)
     used = view.used
     rej = view.rejected
     n = view.time.size
@@ -88,14 +91,18 @@ def _fmt(v: float) -> str:
 
 
 def _limit(r_used: np.ndarray, r_rej: np.ndarray, s3_used: np.ndarray) -> float:
-    """Symmetric half-height of the y-range (display units) from the used residuals."""
+    """Symmetric half-height of the y-range (display units) from the used residuals.
+
+    |median| + 6 robust spreads, widened to show the +-3 sigma band (99th percentile, so
+    noise bursts fit) unless that band is more than 5x wider than the residuals.
+    """
     base = r_used if r_used.size else r_rej
     spread = robust_spread(base)
     centre = float(np.median(base)) if base.size else 0.0
     half = abs(centre) + SPREAD_FACTOR * spread
     s3 = s3_used[np.isfinite(s3_used) & (s3_used > 0)]
     if s3.size:
-        band = 1.15 * float(np.median(s3))
+        band = 1.1 * float(np.percentile(s3, 99.0))  # the band, bursts included, fits
         cap = abs(centre) + 5.0 * SPREAD_FACTOR * spread if spread > 0 else band
         half = max(half, min(band, cap))
     if not (np.isfinite(half) and half > 0):
@@ -118,34 +125,49 @@ def _draw_component(ax: Axes, view: SensorView, x: np.ndarray, r: np.ndarray, s3
     idx = decimate_indices(np.where(u_ok, r, np.nan))
     yy = np.clip(r[idx], -half * _EDGE, half * _EDGE)
     off = np.abs(r[idx]) > half * _EDGE
+    dot = 4.0 if idx.size < 300 else 2.4 if idx.size < 3_000 else 1.6
     for g in np.unique(view.group[idx]) if idx.size else []:
         sel = view.group[idx] == g
         col = CYCLE[int(g) % len(CYCLE)] if len(view.group_names) > 1 else CYCLE[0]
-        ax.plot(x[idx][sel & ~off], yy[sel & ~off], ls="none", marker="o", ms=1.6, mew=0,
+        ax.plot(x[idx][sel & ~off], yy[sel & ~off], ls="none", marker="o", ms=dot, mew=0,
                 color=col, zorder=2, rasterized=False)
         _clipped(ax, x[idx][sel & off], r[idx][sel & off], half, col, ms=3.5)
     # rejected points: every one is drawn
     rx, ry = x[r_ok], r[r_ok]
     inside = np.abs(ry) <= half * _EDGE
-    ax.plot(rx[inside], ry[inside], ls="none", marker="x", ms=4.0, mew=0.9, color=REJECT_COLOR,
-            zorder=3)
-    _clipped(ax, rx[~inside], ry[~inside], half, REJECT_COLOR, ms=5.0)
+    ms = reject_marker_size(rx.size)
+    ax.plot(rx[inside], ry[inside], ls="none", marker="x", ms=ms, mew=0.25 * ms,
+            color=REJECT_COLOR, alpha=0.8 if rx.size > 1_000 else 1.0, zorder=3)
+    _clipped(ax, rx[~inside], ry[~inside], half, REJECT_COLOR, ms=ms + 1.0)
     ax.set_ylim(-half, half)
     rms = float(np.sqrt(np.mean(ru**2))) if ru.size else float("nan")
     mean = float(np.mean(ru)) if ru.size else float("nan")
     sig = float(np.nanmedian(s3[u_ok]) / 3.0) if u_ok.any() and np.isfinite(s3[u_ok]).any() \
         else float("nan")
     n_off = int((~inside).sum())
-    txt = f"mean {mean:+.3g}   RMS {_fmt(rms)}   median σ {_fmt(sig)} {unit}"
-    if n_off:
-        txt += f"   |   {n_off:,} rejected off-scale"
-    ax.text(0.005, 0.97, txt, transform=ax.transAxes, ha="left", va="top", fontsize=8,
-            zorder=5, bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.7", alpha=0.85))
+    ax.set_title(f"used {int(u_ok.sum()):,}   mean {mean:+.3g}   RMS {_fmt(rms)}   "
+                 f"median σ {_fmt(sig)} {unit}", loc="left", fontsize=8, pad=3)
+    n_rej = int(r_ok.sum())
+    if n_rej:
+        ax.set_title(f"rejected {n_rej:,}" + (f" ({n_off:,} off-scale ▲▼)" if n_off else ""),
+                     loc="right", fontsize=8, pad=3, color=REJECT_COLOR)
     return rms
 
 
+def reject_marker_size(n: int) -> float:
+    """Marker size (points) of rejected crosses: 4.5 up to 300 points, shrinking to 1.8 at 1e5,
+    so that thousands of wild points mark where they are without hiding the used data."""
+    if n <= 300:
+        return 4.5
+    return float(max(1.8, 4.5 - 1.1 * np.log10(n / 300.0)))
+
+
 def _envelope(ax: Axes, x: np.ndarray, s3: np.ndarray, fin: np.ndarray) -> None:
-    """+-3 sigma band: per-time-bin maximum of 3 sigma, gaps left open."""
+    """+-3 sigma band: per-time-bin maximum of 3 sigma; open only across real data gaps.
+
+    Bins are at least two median sample intervals wide; an empty bin inside a data step
+    shorter than ``GAP_SAMPLES`` intervals takes the preceding bin's value.
+    """
     ok = fin & np.isfinite(s3) & np.isfinite(x)
     if not ok.any():
         return
@@ -153,13 +175,26 @@ def _envelope(ax: Axes, x: np.ndarray, s3: np.ndarray, fin: np.ndarray) -> None:
     lo, hi = float(xs[0]), float(xs[-1])
     if hi <= lo:
         lo, hi = lo - 0.5, hi + 0.5
-    edges = np.linspace(lo, hi, ENVELOPE_BINS + 1)
+    dt = np.diff(xs)
+    dt_med = float(np.median(dt[dt > 0])) if (dt > 0).any() else 0.0
+    nbin = ENVELOPE_BINS if dt_med <= 0 else int(np.clip((hi - lo) / (2 * dt_med), 1,
+                                                          ENVELOPE_BINS))
+    edges = np.linspace(lo, hi, nbin + 1)
     band = binned_extreme(xs, vs, edges, "max")
     centres = 0.5 * (edges[:-1] + edges[1:])
-    ax.fill_between(centres, -band, band, step="mid", color=_BAND_COLOR, alpha=0.45, lw=0,
-                    zorder=1)
+    empty = ~np.isfinite(band)
+    if empty.any() and dt_med > 0:
+        k = np.clip(np.searchsorted(xs, centres), 1, xs.size - 1)
+        short = (xs[k] - xs[k - 1]) <= GAP_SAMPLES * dt_med
+        prev = np.maximum.accumulate(np.where(~empty, np.arange(nbin), -1))
+        fill = empty & short & (prev >= 0)
+        band[fill] = band[prev[fill]]
+    # each bin drawn flat from its left to its right edge; NaN bins leave a gap
+    xx = np.column_stack([edges[:-1], edges[1:]]).ravel()
+    yy = np.repeat(band, 2)
+    ax.fill_between(xx, -yy, yy, color=_BAND_COLOR, alpha=0.45, lw=0, zorder=1)
     for sgn in (-1.0, 1.0):
-        ax.step(centres, sgn * band, where="mid", color="#3182bd", lw=0.6, zorder=1.2)
+        ax.plot(xx, sgn * yy, color="#2171b5", lw=0.9, zorder=3.6)
 
 
 def _clipped(ax: Axes, x: np.ndarray, y: np.ndarray, half: float, color: str,
@@ -169,7 +204,7 @@ def _clipped(ax: Axes, x: np.ndarray, y: np.ndarray, half: float, color: str,
         sel = np.sign(y) == sgn
         if sel.any():
             ax.plot(x[sel], np.full(int(sel.sum()), sgn * half * _EDGE), ls="none", marker=mk,
-                    ms=ms, color=color, mec="k" if color == REJECT_COLOR else color, mew=0.4,
+                    ms=ms, color=color, mec="k" if sel.sum() < 300 else color, mew=0.4,
                     zorder=3.5, clip_on=False)
 
 
@@ -190,5 +225,6 @@ def _legend(fig: Figure, view: SensorView, used: np.ndarray, rej: np.ndarray,
                           label="off-scale (clipped at edge)"))
     handles.append(Patch(fc=_BAND_COLOR, ec="#3182bd", alpha=0.8,
                          label="±3σ (noise used by the estimator)"))
-    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, top), ncol=len(handles),
+    fig.legend(handles=handles, loc="lower center",
+               bbox_to_anchor=(0.5, top + 0.2 / fig.get_figheight()), ncol=len(handles),
                frameon=False, fontsize=8, handletextpad=0.3, columnspacing=1.5)

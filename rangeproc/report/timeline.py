@@ -16,6 +16,7 @@ from rangeproc.report.common import (
     SensorView,
     binned_extreme,
     n_sensors_colormap,
+    n_sensors_running_max,
     new_figure,
     t0_note,
     time_label,
@@ -54,8 +55,8 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
     tracks = [tr for tr in tracks if np.size(tr.time) > 0]
     nrow = len(views) + len(tracks)
     fig = new_figure(14.0, max(3.2, 1.7 + 0.42 * max(nrow, 1)))
-    ax = fig.add_axes((0.11, 0.95 / fig.get_figheight(), 0.74,
-                       1.0 - 1.75 / fig.get_figheight()))
+    box = (0.11, 0.62 / fig.get_figheight(), 0.76, 1.0 - 1.42 / fig.get_figheight())
+    ax = fig.add_axes(box)
     fig.suptitle("Coverage: used data spans per sensor, rejected points, sensors per target",
                  fontsize=12, fontweight="bold", y=1.0 - 0.12 / fig.get_figheight(), va="top")
     fig.text(0.995, 0.005, t0_note(t0), ha="right", va="bottom", fontsize=7, color="0.35")
@@ -96,7 +97,7 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
     for k, tr in enumerate(tracks):
         y = len(tracks) - 1 - k
         tt = np.asarray(tr.time, dtype=float) - t0
-        ns = np.asarray(tr.n_sensors, dtype=float)
+        ns = n_sensors_running_max(tr.time, tr.n_sensors)
         step = _median_step(tt)
         if 0 < step < cell:  # dense epochs: the worst (minimum) n_sensors of each cell
             cells = binned_extreme(tt, ns, edges, "min")
@@ -104,7 +105,7 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
             cells = _epoch_cells(tt, ns, edges, step)
         mappable = ax.pcolormesh(edges, [y - 0.36, y + 0.36], np.ma.masked_invalid(cells)[None],
                                  cmap=cmap, norm=norm, shading="flat")
-        cov = 100.0 * float(np.mean(ns > 0)) if ns.size else 0.0
+        cov = 100.0 * float(np.mean(np.asarray(tr.n_sensors) > 0)) if ns.size else 0.0
         ax.text(1.005, y, f"{cov:.1f} % epochs\nwith data", transform=trans, fontsize=7,
                 va="center", ha="left")
         labels.append(f"{tr.target_id}\nn_sensors")
@@ -117,10 +118,9 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
     ax.set_xlabel(time_label(t0))
     ax.grid(axis="y", visible=False)
     if mappable is not None:
-        cax = fig.add_axes((0.955, 0.95 / fig.get_figheight(), 0.012,
-                            min(0.5, 1.0 - 1.75 / fig.get_figheight())))
+        cax = fig.add_axes((0.955, box[1], 0.011, box[3]))
         cb = fig.colorbar(mappable, cax=cax, ticks=np.arange(0, n_max + 1))
-        cb.set_label("n_sensors (0 = coasting)", fontsize=8)
+        cb.set_label("n_sensors, max over 1 s (0 = coasting)", fontsize=8)
     kinds = list(dict.fromkeys(v.kind for v in views))
     handles = [Patch(fc=KIND_COLORS.get(k, CYCLE[0]), label=f"{k}: used data") for k in kinds]
     handles.append(Patch(fc=REJECT_COLOR, label="rejected point"))

@@ -7,11 +7,14 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from rangeproc.report.common import (
     CYCLE,
     break_gaps,
+    log_axis,
     n_sensors_colormap,
+    n_sensors_running_max,
     new_figure,
     stride_indices,
     t0_note,
@@ -71,17 +74,22 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
     ax_spd.set_ylabel("speed |v| [m/s]")
     ax_spd.set_title("speed")
     ax_sig.set_ylabel("1-σ position [m]")
-    ax_sig.set_title("1-σ position uncertainty per axis (e, n, u)")
+    ax_sig.set_title("1-σ position uncertainty per axis (e, n, u)", loc="left")
     ax_sig.set_xlabel(time_label(t0))
     if any(np.isfinite(line.get_ydata()).any() and (np.asarray(line.get_ydata()) > 0).any()
            for line in ax_sig.get_lines()):
-        ax_sig.set_yscale("log")
+        log_axis(ax_sig)
     for ax in (ax_up, ax_spd):
         ax.tick_params(labelbottom=False)
     if len(tracks) > 1:
         ax_up.legend(loc="best", ncol=min(len(tracks), 4))
     if tracks:
-        ax_sig.legend(loc="upper right", ncol=3 if single else 1, fontsize=7)
+        # single target: colour = axis; several: colour = target (as above), style = axis
+        handles = [Line2D([], [], color=c if single else "0.2", ls="-" if single else ls,
+                          lw=1.1, label=f"σ_{name}") for name, ls, c in _AXIS_STYLES]
+        ax_sig.legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3,
+                      fontsize=7.5, frameon=False, borderaxespad=0.1, handlelength=2.2,
+                      columnspacing=1.2)
     else:
         for ax in (ax_up, ax_spd, ax_sig):
             ax.text(0.5, 0.5, "no track", transform=ax.transAxes, ha="center", va="center",
@@ -105,7 +113,7 @@ def _draw_plan(fig: Figure, ax: Axes, tr: TrackEstimate, idx: np.ndarray, color:
     e = np.asarray(tr.x, dtype=float)[idx, 0] / 1e3
     n = np.asarray(tr.x, dtype=float)[idx, 1] / 1e3
     if single and t.size > 1:
-        ns = np.asarray(tr.n_sensors, dtype=float)[idx]
+        ns = n_sensors_running_max(tr.time, tr.n_sensors)[idx]
         cmap, norm = n_sensors_colormap(int(np.nanmax(ns)) if np.isfinite(ns).any() else 1)
         pts = np.column_stack([e, n])
         segs = np.stack([pts[:-1], pts[1:]], axis=1)
@@ -116,7 +124,7 @@ def _draw_plan(fig: Figure, ax: Axes, tr: TrackEstimate, idx: np.ndarray, color:
         ax.add_collection(lc)
         cb = fig.colorbar(lc, ax=ax, shrink=0.6, pad=0.02, aspect=30,
                           ticks=np.arange(0, norm.boundaries[-1] + 0.5))
-        cb.set_label("sensors contributing (n_sensors); 0 = no data, coasting")
+        cb.set_label("n_sensors, max over 1 s (0 = no data, coasting)")
         _time_marks(ax, t, e, n, t0)
     else:
         tg, eg, ng = break_gaps(t, e, n)

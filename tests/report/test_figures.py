@@ -28,11 +28,13 @@ def make_track(rng: np.random.Generator, target_id: str = "T1", k: int = 600,
     x[:, 1] = 15_000.0 * (1.0 - np.cos(2.0 * s))
     x[:, 2] = 1_000.0 + 8_000.0 * s
     x[:, 3:6] = np.gradient(x[:, 0:3], t, axis=0) if k > 1 else 250.0
-    sig = np.column_stack([3.0 + s, 4.0 + s, 8.0 + 2 * s]) * (1.0 + rng.random((k, 1)))
+    wobble = 1.0 + 0.3 * np.sin(12.0 * s + rng.uniform(0, 6))[:, None]
+    sig = np.column_stack([3.0 + s, 4.0 + s, 8.0 + 2 * s]) * wobble
     P = np.zeros((k, 9, 9))
     P[:, np.arange(3), np.arange(3)] = sig**2
     P[:, np.arange(3, 9), np.arange(3, 9)] = 1.0
-    ns = rng.integers(1, 5, size=k)
+    ns = np.repeat(rng.integers(1, 5, size=k // 50 + 1), 50)[:k]
+    ns[::10] += 1  # a 1 Hz sensor on the 10 Hz grid
     ns[k // 3: k // 3 + k // 20] = 0
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns.astype(np.int64),
                          lat=np.full(k, 35.0), lon=np.full(k, -117.0), height=x[:, 2] + 700.0)
@@ -48,10 +50,13 @@ def make_residuals(rng: np.random.Generator, sensor_id: str, kind: str, n: int,
                      (2.5, 2.5, 5.0, 0.15, 0.15, 0.15)),
              "mistram": (("range_rate",), ("m/s",), (0.03,))}[kind]
     names, units, sig = comps
-    t = t_start + np.sort(rng.uniform(0.0, span, n))
+    t = t_start + np.linspace(0.0, span, n, endpoint=False) + rng.normal(0, 1e-3, n)
+    t = np.sort(t[rng.random(n) > 0.03])  # regular sampling with dropouts
     t = t[(t < t_start + 0.4 * span) | (t > t_start + 0.5 * span)]  # a gap
     n = t.size
     sigma = np.tile(np.asarray(sig), (n, 1))
+    burst = (t > t_start + 0.65 * span) & (t < t_start + 0.75 * span)
+    sigma[burst] *= 3.0  # noise burst, followed by the adaptive noise estimate
     res = rng.standard_normal((n, len(names))) * sigma
     rejected = rng.random(n) < 0.02
     res[rejected] *= rng.choice([5.0, 300.0], size=(int(rejected.sum()), 1))
@@ -132,18 +137,19 @@ def test_exception_midway_leaves_no_temp_file(tmp_path: Path, scenario,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["residuals_R1.png", "trajectory.png"]
 
 
-def test_failure_inside_savefig_removes_temp_file(tmp_path: Path, scenario,
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:
-    from matplotlib.figure import Figure
+def test_failure_while_writing_removes_temp_file(tmp_path: Path, scenario,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    from rangeproc.report import common
 
     tracks, residuals, _ = scenario
-    real = Figure.savefig
+    real = common.write_palette_png
 
-    def half_write(self, fh, **kw):  # type: ignore[no-untyped-def]
-        real(self, fh, **kw)
+    def half_write(rgba, dst):  # type: ignore[no-untyped-def]
+        real(rgba, dst)
+        Path(dst).write_bytes(Path(dst).read_bytes()[:100])  # truncated, then the disk fills
         raise OSError("disk full")
 
-    monkeypatch.setattr(Figure, "savefig", half_write)
+    monkeypatch.setattr(common, "write_palette_png", half_write)
     (tmp_path / "trajectory.png").write_bytes(b"old")
     with pytest.raises(OSError, match="disk full"):
         write_report(tmp_path, tracks, residuals)
@@ -247,3 +253,44 @@ def test_figures_do_not_touch_global_matplotlib_state(tmp_path: Path, scenario) 
     before = (matplotlib.get_backend(), dict(matplotlib.rcParams))
     write_report(tmp_path, tracks, residuals[:1])
     assert (matplotlib.get_backend(), dict(matplotlib.rcParams)) == before
+
+
+def test_window_nis_windows_do_not_span_gaps() -> None:
+    t = np.concatenate([np.arange(25.0), 100.0 + np.arange(12.0)])
+    dof = np.full(t.size, 2)
+    nis = np.where(t < 50, 1.0, 3.0)
+    t_mid, mean, expect, lo, hi = window_nis(t, nis, dof, 10, gap=5.0)
+    # stretch 1: 25 rows -> windows of 10 and 15 rows; stretch 2: 12 rows -> one window
+    np.testing.assert_allclose(t_mid, [4.5, 17.0, 105.5])
+    np.testing.assert_allclose(mean, [1.0, 1.0, 3.0])
+    np.testing.assert_allclose(expect, 2.0)
+    assert np.all(lo < expect) and np.all(hi > expect)
+
+
+def test_y_range_ignores_a_single_wild_point_but_fits_the_sigma_band() -> None:
+    from rangeproc.report.residuals import _limit
+
+    rng = np.random.default_rng(11)
+    r = rng.standard_normal(10_000)
+    r[17] = 1e6  # one wild point that the gate let through
+    half = _limit(r, np.array([5e5]), np.full(r.size, 3.0))
+    assert 5.0 < half < 7.5  # ~6 robust spreads, not 1e6
+    burst = np.where(np.arange(r.size) < 500, 30.0, 3.0)  # 5 % of rows in a 10x noise burst
+    r[:500] *= 10.0
+    assert 30.0 <= _limit(r, np.zeros(0), burst) <= 33.0  # the burst's 3-sigma band fits
+
+
+def test_binned_extreme_matches_a_loop() -> None:
+    from rangeproc.report.common import binned_extreme
+
+    rng = np.random.default_rng(2)
+    t = np.sort(rng.uniform(0, 10, 500))
+    t = t[(t < 4) | (t > 6)]
+    v = rng.standard_normal(t.size)
+    v[::7] = np.nan
+    edges = np.linspace(-1, 11, 25)
+    got = binned_extreme(t, v, edges, "max")
+    for i in range(24):
+        sel = (t >= edges[i]) & (t < edges[i + 1]) & np.isfinite(v)
+        expect = v[sel].max() if sel.any() else np.nan
+        np.testing.assert_equal(got[i], expect)
