@@ -398,12 +398,30 @@ def _ok(flag: bool) -> str:
     return "PASS" if flag else "FAIL"
 
 
+def print_table(rows: list) -> None:
+    """One kernel table: (name, rows, us/meas, ratio or None, agreement dict or None) each."""
+    print(f"{'implementation':<36}{'rows':>7}{'us/meas':>11}{'x rangeproc':>13}"
+          f"{'|dx| smoothed (m)':>19}{'relative':>10}")
+    for name, n, u, ratio, a in rows:
+        tail = (f"{ratio:12.1f}x{a['smoothed_pos_abs_m']:19.2e}{a['smoothed_pos_rel']:10.1e}"
+                if a else f"{'1.0x':>13}{'-':>19}{'-':>10}")
+        print(f"{name:<36}{n:>7}{u:11.2f}{tail}")
+
+
+def print_agreement(ag: dict, peers_: tuple[str, ...], width: int) -> None:
+    """One line per peer: filtered/smoothed position and sigma agreement with rangeproc."""
+    for peer in peers_:
+        a = ag[peer]
+        print(f"agreement vs {peer:<{width}} filtered {a['filtered_pos_abs_m']:.2e} m "
+              f"(rel {a['filtered_pos_rel']:.1e}), smoothed {a['smoothed_pos_abs_m']:.2e} m "
+              f"(rel {a['smoothed_pos_rel']:.1e}), smoothed sigma rel "
+              f"{a['smoothed_sigma_rel']:.1e}")
+
+
 def print_kernel(k: dict) -> None:
     us, ag = k["us_per_meas"], k["agreement"]
     print(f"\nKernel: CA EKF + RTS smoother, one radar (range/azimuth/elevation), "
           f"dt = {k['dt_s']} s, q = {k['q']} m^2/s^5")
-    print(f"{'implementation':<36}{'rows':>7}{'us/meas':>11}{'x rangeproc':>13}"
-          f"{'|dx| smoothed (m)':>19}{'relative':>10}")
     rows = [("rangeproc (numba)", k["rows"], us["rangeproc"], None, None),
             ("FilterPy EKF + rts_smoother", k["rows"], us["filterpy"], k["ratio_filterpy"],
              ag["filterpy"]),
@@ -411,16 +429,8 @@ def print_kernel(k: dict) -> None:
              k["ratio_stonesoup"], ag["stonesoup"]),
             ("  same, stock finite-difference H", k["stonesoup_rows"], us["stonesoup_stock"],
              k["ratio_stonesoup_stock"], ag["stonesoup_stock"])]
-    for name, n, u, ratio, a in rows:
-        tail = (f"{ratio:12.1f}x{a['smoothed_pos_abs_m']:19.2e}{a['smoothed_pos_rel']:10.1e}"
-                if a else f"{'1.0x':>13}{'-':>19}{'-':>10}")
-        print(f"{name:<36}{n:>7}{u:11.2f}{tail}")
-    for peer in ("filterpy", "stonesoup", "stonesoup_stock"):
-        a = ag[peer]
-        print(f"agreement vs {peer:<16} filtered {a['filtered_pos_abs_m']:.2e} m "
-              f"(rel {a['filtered_pos_rel']:.1e}), smoothed {a['smoothed_pos_abs_m']:.2e} m "
-              f"(rel {a['smoothed_pos_rel']:.1e}), smoothed sigma rel "
-              f"{a['smoothed_sigma_rel']:.1e}")
+    print_table(rows)
+    print_agreement(ag, ("filterpy", "stonesoup", "stonesoup_stock"), 16)
     mc = k["stonesoup_model_check"]
     print(f"Stone Soup models vs rangeproc: max|dF| {mc['F']:.1e}, max|dQ| {mc['Q']:.1e} "
           f"(ConstantAcceleration noise_diff_coeff = q is the same white-jerk Q), "
@@ -443,23 +453,14 @@ def print_ukf(u: dict) -> None:
     al, be, ka = u["alpha_beta_kappa"]
     print(f"\nKernel, UKF row: same data, unscented update (alpha {al:g}, beta {be:g}, "
           f"kappa {ka:g}: lambda = alpha^2 (n + kappa) - n in all three) + smoother")
-    print(f"{'implementation':<36}{'rows':>7}{'us/meas':>11}{'x rangeproc':>13}"
-          f"{'|dx| smoothed (m)':>19}{'relative':>10}")
     rows = [("rangeproc UKF + RTS (numba)", u["rows"], us["rangeproc"], None, None),
             ("FilterPy UKF + rts_smoother", u["rows"], us["filterpy"], u["ratio_filterpy"],
              ag["filterpy"]),
             ("Stone Soup UKF + UKF smoother", u["stonesoup_rows"], us["stonesoup"],
              u["ratio_stonesoup"], ag["stonesoup"])]
-    for name, n, v, ratio, a in rows:
-        tail = (f"{ratio:12.1f}x{a['smoothed_pos_abs_m']:19.2e}{a['smoothed_pos_rel']:10.1e}"
-                if a else f"{'1.0x':>13}{'-':>19}{'-':>10}")
-        print(f"{name:<36}{n:>7}{v:11.2f}{tail}")
-    for peer in ("filterpy", "filterpy_redraw", "stonesoup", "stonesoup_linear_angle_mean"):
-        a = ag[peer]
-        print(f"agreement vs {peer:<28} filtered {a['filtered_pos_abs_m']:.2e} m "
-              f"(rel {a['filtered_pos_rel']:.1e}), smoothed {a['smoothed_pos_abs_m']:.2e} m "
-              f"(rel {a['smoothed_pos_rel']:.1e}), smoothed sigma rel "
-              f"{a['smoothed_sigma_rel']:.1e}")
+    print_table(rows)
+    print_agreement(ag, ("filterpy", "filterpy_redraw", "stonesoup",
+                         "stonesoup_linear_angle_mean"), 28)
     same = u["filterpy_redraw_vs_shipped_m"]
     print(f"FilterPy as shipped vs with sigma points redrawn from the predicted moments before "
           f"each update (as rangeproc): max|dx| {same:.1e} m"
