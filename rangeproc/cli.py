@@ -28,13 +28,50 @@ def _fail(message: str, code: int) -> None:
     sys.exit(code)
 
 
+class DeferredLog(logging.Handler):
+    """Holds the library's log lines until the command ends: they are written to stderr after
+    a success and dropped after a failure, so that a failed command's stderr is exactly its one
+    error line (the error says what failed; ``--debug`` streams every line as it comes)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.setFormatter(logging.Formatter("rangeproc: %(levelname)s: %(message)s"))
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(self.format(record))
+
+    def settle(self, success: bool) -> None:
+        """Write the held lines (success) or drop them (failure)."""
+        lines, self.lines = self.lines, []
+        if success:
+            for line in lines:
+                click.echo(line, err=True)
+
+
+def _settle_log(success: bool) -> None:
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, DeferredLog):
+            handler.settle(success)
+
+
 def library_errors(func: Callable[..., Any]) -> Callable[..., Any]:
     """Decorator: map rangeproc exceptions to one-line messages and exit codes."""
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            return func(*args, **kwargs)
+            result = func(*args, **kwargs)
+            _settle_log(True)
+            return result
+        except BaseException:
+            _settle_log(False)
+            raise
+
+    @functools.wraps(func)
+    def mapped(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return wrapper(*args, **kwargs)
         except (ConfigError, DataError) as exc:
             _fail(str(exc), EXIT_INPUT)
         except NumericalError as exc:
@@ -49,7 +86,7 @@ def library_errors(func: Callable[..., Any]) -> Callable[..., Any]:
             _fail(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
                   "traceback)", EXIT_INTERNAL)
 
-    return wrapper
+    return mapped
 
 
 def quiet_option(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -108,8 +145,14 @@ def main(debug: bool) -> None:
     rejects wild points, stabilises moving-platform measurements, filters and smooths all
     sensors together and writes the fused trajectory per target with its uncertainty.
     """
-    logging.basicConfig(level=logging.DEBUG if debug else logging.WARNING,
-                        format="rangeproc: %(levelname)s: %(message)s")
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if isinstance(h, DeferredLog)]:
+        root.removeHandler(handler)                  # a previous in-process invocation's
+    if debug:
+        logging.basicConfig(level=logging.DEBUG, format="rangeproc: %(levelname)s: %(message)s")
+    else:
+        root.setLevel(logging.WARNING)
+        root.addHandler(DeferredLog())
     for noisy in ("numba", "matplotlib", "PIL"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
 

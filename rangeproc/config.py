@@ -80,6 +80,7 @@ class SensorSettings:
     sigma: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     target: str | None = None
     stations: tuple[StationSettings, ...] = ()
+    allow_disjoint_time: bool = False
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -93,6 +94,13 @@ class ProcessingSettings:
     process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
         estimate it from the data (maximum likelihood, then local EM).
     filter: measurement update, "ekf" (linearised, Joseph form) or "ukf" (unscented).
+    max_gap: a target unobserved for longer than this (s) is split into separate spans with no
+        output epochs in between; also the distance that makes a sensor's time stamps isolated.
+    time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
+        rows is refused (wrong time scale or time_offset), unless ``allow_disjoint_time``.
+    max_speed: physical speed limit (m/s) of targets and platforms (range rates, velocities,
+        jumps between consecutive fixes).
+    max_range: physical range limit (m) of radars and laser rangers; also the highest height.
     """
 
     gate_probability: float = 0.9999
@@ -100,6 +108,10 @@ class ProcessingSettings:
     adapt_noise: bool = True
     process_noise: float | None = None
     filter: str = "ekf"
+    max_gap: float = 60.0
+    time_margin: float = 60.0
+    max_speed: float = 2.0e4
+    max_range: float = 5.0e7
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -138,10 +150,35 @@ ANGLE_COMPONENTS = frozenset({"azimuth", "elevation", "roll", "pitch", "yaw"})
 
 _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
 _SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
-                "time_offset", "sigma", "target", "stations")
+                "time_offset", "sigma", "target", "stations", "allow_disjoint_time")
 _GEODETIC_KEYS = ("lat", "lon", "height")
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
-                    "filter")
+                    "filter", "max_gap", "time_margin", "max_speed", "max_range")
+
+# Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
+# mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
+# billion output epochs per second).
+#: heights of the origin, sites and stations (m): deepest trench to beyond the Moon's distance
+HEIGHT_BOUNDS = (-12_000.0, 1.0e9)
+#: |time_offset| (s): the same bound as the time stamps themselves (editing.timecheck)
+MAX_TIME_OFFSET = 1.0e10
+#: output.rate_hz (Hz)
+MAX_RATE_HZ = 1000.0
+#: processing.noise_passes
+MAX_NOISE_PASSES = 20
+#: processing.process_noise (m^2/s^5)
+PROCESS_NOISE_BOUNDS = (1e-12, 1e12)
+#: processing.gate_probability
+GATE_PROBABILITY_BOUNDS = (0.5, 1.0)
+#: a-priori sigmas in SI (m, m/s, rad); angles at most one turn
+SIGMA_BOUNDS = (1e-12, 1e9)
+MAX_SIGMA_ANGLE = 2.0 * math.pi
+#: |lever_arm| components (m)
+MAX_LEVER_ARM = 1.0e4
+#: processing.max_gap, time_margin (s), max_speed (m/s), max_range (m): (low, high)
+PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
+    "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, 3.0e8),
+    "max_range": (1.0, 1.0e12)})
 FILTERS = ("ekf", "ukf")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
@@ -264,6 +301,20 @@ class _Validator:
             raise self.error(key, f"must be > 0, got {value:g}")
         return value
 
+    def bounded(self, x: object, key: str, lo: float, hi: float, unit: str = "") -> float:
+        """A number in [lo, hi] (plausibility bounds; the message gives them)."""
+        value = self.number(x, key)
+        if not lo <= value <= hi:
+            u = f" {unit}" if unit else ""
+            raise self.error(key, f"{value:g}{u} is outside the plausible range "
+                                  f"[{lo:g}, {hi:g}]{u}")
+        return value
+
+    def boolean(self, x: object, key: str) -> bool:
+        if not isinstance(x, bool):
+            raise self.error(key, f"expected true or false, got {_type_name(x)} ({_show(x)})")
+        return x
+
     def string(self, x: object, key: str) -> str:
         if not isinstance(x, str):
             raise self.error(key, f"expected a string, got {_type_name(x)} ({_show(x)})")
@@ -280,7 +331,8 @@ class _Validator:
         t = self.table(x, key, _GEODETIC_KEYS)
         lat = self.number(self.required(t, "lat", key), f"{key}.lat")
         lon = self.number(self.required(t, "lon", key), f"{key}.lon")
-        height = self.number(self.required(t, "height", key), f"{key}.height")
+        height = self.bounded(self.required(t, "height", key), f"{key}.height",
+                              *HEIGHT_BOUNDS, "m")
         if not -90.0 <= lat <= 90.0:
             raise self.error(f"{key}.lat", f"latitude {lat:g} outside [-90, 90] degrees")
         if not -180.0 <= lon < 360.0:
@@ -317,6 +369,9 @@ class _Validator:
         t = self.table(x, "output", ("dir", "rate_hz"))
         out_dir = Path(self.string(t.get("dir", "out"), "output.dir")).expanduser()
         rate = self.positive(t.get("rate_hz", 10.0), "output.rate_hz")
+        if rate > MAX_RATE_HZ:
+            raise self.error("output.rate_hz", f"{rate:g} Hz is above the maximum "
+                                               f"{MAX_RATE_HZ:g} Hz")
         return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate)
 
     def targets(self, x: object) -> tuple[TargetSettings, ...]:
@@ -335,24 +390,29 @@ class _Validator:
         kw: dict[str, Any] = {}
         if "gate_probability" in t:
             p = self.number(t["gate_probability"], "processing.gate_probability")
-            if not 0.0 < p < 1.0:
-                raise self.error("processing.gate_probability", f"must be in (0, 1), got {p:g}")
+            lo, hi = GATE_PROBABILITY_BOUNDS
+            if not lo <= p < hi:
+                raise self.error("processing.gate_probability",
+                                 f"must be in [{lo:g}, {hi:g}), got {p:g}")
             kw["gate_probability"] = p
         if "noise_passes" in t:
             n = t["noise_passes"]
             if not isinstance(n, int) or isinstance(n, bool):
                 raise self.error("processing.noise_passes",
                                  f"expected an integer, got {_type_name(n)} ({_show(n)})")
-            if n < 0:
-                raise self.error("processing.noise_passes", f"must be >= 0, got {n}")
+            if not 0 <= n <= MAX_NOISE_PASSES:
+                raise self.error("processing.noise_passes",
+                                 f"must be in [0, {MAX_NOISE_PASSES}], got {n}")
             kw["noise_passes"] = n
         if "adapt_noise" in t:
-            if not isinstance(t["adapt_noise"], bool):
-                raise self.error("processing.adapt_noise",
-                                 f"expected true or false, got {_type_name(t['adapt_noise'])}")
-            kw["adapt_noise"] = t["adapt_noise"]
+            kw["adapt_noise"] = self.boolean(t["adapt_noise"], "processing.adapt_noise")
         if "process_noise" in t:
-            kw["process_noise"] = self.positive(t["process_noise"], "processing.process_noise")
+            q = self.positive(t["process_noise"], "processing.process_noise")
+            kw["process_noise"] = self.bounded(q, "processing.process_noise",
+                                               *PROCESS_NOISE_BOUNDS, "m^2/s^5")
+        for name, (lo, hi) in PROCESSING_BOUNDS.items():
+            if name in t:
+                kw[name] = self.bounded(t[name], f"processing.{name}", lo, hi)
         if "filter" in t:
             f = self.string(t["filter"], "processing.filter")
             if f not in FILTERS:
@@ -375,7 +435,10 @@ class _Validator:
             raise self.error(f"{key}.angle_unit",
                              f"unknown angle unit '{unit}' (expected one of: "
                              f"{_join(ANGLE_UNITS)})")
-        time_offset = self.number(t.get("time_offset", 0.0), f"{key}.time_offset")
+        time_offset = self.bounded(t.get("time_offset", 0.0), f"{key}.time_offset",
+                                   -MAX_TIME_OFFSET, MAX_TIME_OFFSET, "s")
+        allow_disjoint = self.boolean(t.get("allow_disjoint_time", False),
+                                      f"{key}.allow_disjoint_time")
 
         site = platform = None
         lever_arm = (0.0, 0.0, 0.0)
@@ -415,14 +478,15 @@ class _Validator:
         return SensorSettings(id=ident, kind=kind, file=(folder / file).resolve(), site=site,
                               platform=platform, lever_arm=lever_arm, angle_unit=unit,
                               time_offset=time_offset, sigma=sigma, target=target,
-                              stations=stations)
+                              stations=stations, allow_disjoint_time=allow_disjoint)
 
     def lever_arm(self, x: object, key: str) -> tuple[float, float, float]:
         items = self.array(x, key)
         if len(items) != 3:
             raise self.error(key, f"expected 3 numbers [x, y, z] (body FRD, m), got "
                                   f"{len(items)}")
-        a, b, c = (self.number(v, f"{key}[{i}]") for i, v in enumerate(items))
+        a, b, c = (self.bounded(v, f"{key}[{i}]", -MAX_LEVER_ARM, MAX_LEVER_ARM, "m")
+                   for i, v in enumerate(items))
         return (a, b, c)
 
     def stations(self, x: object, key: str) -> tuple[StationSettings, ...]:
@@ -445,7 +509,12 @@ class _Validator:
         out = dict(defaults)
         for name, value in t.items():
             s = self.positive(value, f"{key}.{name}")
-            out[name] = s * ANGLE_TO_RADIANS[unit] if name in ANGLE_COMPONENTS else s
+            si = s * ANGLE_TO_RADIANS[unit] if name in ANGLE_COMPONENTS else s
+            hi = MAX_SIGMA_ANGLE if name in ANGLE_COMPONENTS else SIGMA_BOUNDS[1]
+            if not SIGMA_BOUNDS[0] <= si <= hi:
+                raise self.error(f"{key}.{name}", f"{s:g} is outside the plausible range "
+                                                  f"[{SIGMA_BOUNDS[0]:g}, {hi:g}] (SI units)")
+            out[name] = si
         return MappingProxyType(out)
 
     # ---- cross-references ----------------------------------------------------------------

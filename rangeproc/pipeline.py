@@ -20,7 +20,9 @@ import numpy as np
 
 import rangeproc
 from rangeproc.config import Config, SensorSettings, load_config
-from rangeproc.errors import ConfigError
+from rangeproc.editing.record import EditRecord
+from rangeproc.editing.screen import screen_logs
+from rangeproc.errors import ConfigError, DataError
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
@@ -56,7 +58,7 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
     p = cfg.processing
     return EstimatorSettings(gate_probability=p.gate_probability, noise_passes=p.noise_passes,
                              adapt_noise=p.adapt_noise, process_noise=p.process_noise,
-                             method=UKF if p.filter == "ukf" else EKF)
+                             method=UKF if p.filter == "ukf" else EKF, max_gap=p.max_gap)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
@@ -135,7 +137,9 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     check_output_dir(cfg)
     frame = RangeFrame(cfg.origin)
     with clock.stage("read", len(cfg.sensors)) as tick:
-        logs = read_all(cfg, tick)
+        raw = read_all(cfg, tick)
+    edits = EditRecord()
+    logs = screen_logs(cfg, raw, edits)
     with clock.stage("assemble", sum(s.kind != "ins" for s in cfg.sensors)) as tick:
         rows = assemble_all(cfg, frame, logs, tick)
     settings = estimator_settings(cfg)
@@ -145,8 +149,11 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     tracks, residuals, target_summary = [], [], {}
     sensor_summary: dict[str, dict] = {
         s.id: {"kind": s.kind, "file": str(s.file), "n_read": logs[s.id].n_read,
-               "n_rows": len(logs[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
-               "n_rejected": 0, "n_no_platform_geometry": 0} for s in cfg.sensors}
+               "n_rows": len(raw[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
+               "n_rejected": 0, "n_no_platform_geometry": 0,
+               "n_edited": edits.counts(s.id), "edit_examples": edits.examples(s.id),
+               "n_unstarted": 0} for s in cfg.sensors}
+    del raw
     fused: list[tuple[str, FusionResult]] = []
     n_no_platform = {sid: a.n_no_platform for sid, a in rows.items()}
     sites = _sites(cfg, frame, rows)
@@ -190,18 +197,25 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             ss["n_no_platform_geometry"] = n_no_platform[sid]
             ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
             ss["target"] = tid
+        for i, n in result.n_unstarted.items():
+            sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         t_used = result.batch.t[result.used.any(axis=1)]
         target_summary[tid] = {
             "t_start": float(track.time[0]) if len(track.time) else None,
             "t_end": float(track.time[-1]) if len(track.time) else None,
             "n_epochs": len(track.time),
             "gaps": _gaps(t_used, 1.0),
+            "spans": [list(sp) for sp in result.spans],
+            "max_gap_s": settings.max_gap,
             "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
                                 "p95": float(np.percentile(result.q, 95)),
                                 "max": float(np.max(result.q))},
             "divergence_resets": result.n_resets,
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
+    if not tracks:
+        raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
+                        + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")
     out_dir = make_output_dir(cfg)
     with staged_outputs(out_dir) as stage:
         with clock.stage("write"):

@@ -16,7 +16,8 @@ class TrackEstimate:
     time: (K,) s; x: (K, 9) state [e, n, u, ve, vn, vu, ae, an, au] in range ENU (m, m/s,
     m/s^2); P: (K, 9, 9) state covariance; n_sensors: (K,) int64, distinct sensors with a used
     measurement within the output interval around each epoch; lat, lon (deg), height (m):
-    (K,) geodetic position.
+    (K,) geodetic position; spans: ((t_first, t_last), ...) s, the separately estimated spans
+    (the target was unobserved for longer than the gap limit between them: no epochs there).
     """
 
     target_id: str
@@ -27,6 +28,7 @@ class TrackEstimate:
     lat: np.ndarray
     lon: np.ndarray
     height: np.ndarray
+    spans: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -42,6 +42,11 @@ from rangeproc.models.motion import N_KINEMATIC
 LOG_2PI = math.log(2.0 * math.pi)
 
 
+#: Cap of the divergence guard's covariance inflation: an absurd innovation (an impossible
+#: value that slipped past editing) must not blow the covariance up to where the next updates
+#: lose positive definiteness to rounding.
+MAX_RESET_INFLATION = 1e6
+
 #: Update methods of :func:`kalman_forward`.
 EKF = 0
 UKF = 1
@@ -264,7 +269,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         reset_after: divergence guard. When one sensor has this many consecutive rejected
             rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
             "agreeing" with a track that drifted along its line of sight), the kinematic
-            covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` so the track
+            covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` (at most
+            ``MAX_RESET_INFLATION``) so the track
             re-acquires instead of rejecting that sensor for ever. 0 disables.
         x_lin: (E, n) linearisation states per epoch (the previous smoothed trajectory: one
             Gauss-Newton step of the iterated extended Kalman smoother), or an array with zero
@@ -381,7 +387,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 consecutive[sensor[i]] += 1
                 loglik -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after:
-                    factor = max(reset_inflation, 4.0 * val / gate[m])
+                    factor = min(max(reset_inflation, 4.0 * val / gate[m]),
+                                 MAX_RESET_INFLATION)
                     for a in range(min(n, N_KINEMATIC)):
                         for b in range(min(n, N_KINEMATIC)):
                             P[a, b] *= factor

@@ -36,6 +36,13 @@ class MeasurementBatch:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
+    def rows(self, sl: slice) -> MeasurementBatch:
+        """The rows in ``sl`` (views, no copy)."""
+        return MeasurementBatch(self.t[sl], self.model[sl], self.z[sl], self.sigma[sl],
+                                self.s[sl], self.sv[sl], self.Qr[sl], self.sensor[sl],
+                                self.source_row[sl], self.station[sl], self.track[sl],
+                                self.sensor_ids)
+
     def with_sigma(self, sigma: np.ndarray) -> MeasurementBatch:
         """A copy sharing every array but ``sigma`` (N, 6)."""
         return MeasurementBatch(self.t, self.model, self.z, sigma, self.s, self.sv, self.Qr,
@@ -91,3 +98,17 @@ def merge(parts: list[tuple[int, SensorRows]], sensor_ids: tuple[str, ...]) -> M
         s=cat("s"), sv=cat("sv"), Qr=cat("Qr"), sensor=np.ascontiguousarray(sensor),
         source_row=cat("source_row"), station=cat("station"), track=cat("track"),
         sensor_ids=sensor_ids)
+
+
+def concat_batches(parts: list[MeasurementBatch]) -> MeasurementBatch:
+    """Rows of several batches of the same sensors, in the given order (a single part is
+    returned as it is)."""
+    if len(parts) == 1:
+        return parts[0]
+
+    def cat(name: str) -> np.ndarray:
+        return np.ascontiguousarray(np.concatenate([getattr(p, name) for p in parts]))
+
+    return MeasurementBatch(cat("t"), cat("model"), cat("z"), cat("sigma"), cat("s"), cat("sv"),
+                            cat("Qr"), cat("sensor"), cat("source_row"), cat("station"),
+                            cat("track"), parts[0].sensor_ids)

@@ -2,6 +2,10 @@
 
 Stages (each a function of arrays; numerics in the compiled kernels):
 
+0. spans: the rows are cut wherever the target goes unobserved for longer than ``max_gap``;
+   each span is estimated on its own (own start, own process noise) and has output epochs
+   only inside it, so a long gap (or a stray time stamp that survived editing) costs no
+   memory, no output rows and no numerical trouble from a covariance grown over hours;
 1. epochs: the union of row times and output-grid times, so the smoother estimates the state
    exactly at the grid epochs (no interpolation between measurement epochs);
 2. noise pre-edit: a-priori sigmas raised to difference-based estimates (``editing.noise``);
@@ -20,18 +24,18 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import chi2
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
-from rangeproc.errors import NumericalError
+from rangeproc.errors import DataError, NumericalError
 from rangeproc.estimation.forward import EKF, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
-from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import initial_state
 
 log = logging.getLogger(__name__)
@@ -52,6 +56,7 @@ class EstimatorSettings:
     reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
     method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
         ``(alpha, beta, kappa)``, kappa = 3 - n per seed 001.
+    max_gap: longest time (s) without any row inside one span (module docstring, stage 0).
     """
 
     gate_probability: float = 0.9999
@@ -64,6 +69,7 @@ class EstimatorSettings:
     reset_inflation: float = 100.0
     method: int = EKF
     ukf: tuple[float, float, float] = (1.0, 2.0, 3.0 - 9)
+    max_gap: float = 60.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +82,9 @@ class FusionResult:
     nis, dof: (N,) row innovation chi-square and measured components; res, hph: (N, 6) smoothed
     residuals and explained variance; q: (E,) white-jerk PSD used on the step ending at each
     epoch (m^2/s^5); noise: global sigma estimate per
-    (sensor index, component); n_resets: divergence-guard resets in the final pass.
+    (sensor index, component); n_resets: divergence-guard resets in the final pass;
+    spans: ((t_first, t_last), ...) s of the estimated spans; n_unstarted: rows per sensor
+    index of spans that could not be started (no position fix) and are not in ``batch``.
     """
 
     epoch_t: np.ndarray
@@ -93,6 +101,8 @@ class FusionResult:
     q: np.ndarray
     noise: dict[tuple[int, int], float]
     n_resets: int
+    spans: tuple[tuple[float, float], ...] = ()
+    n_unstarted: dict[int, int] = field(default_factory=dict)
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -138,10 +148,89 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
     return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets
 
 
+def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
+    """Cut ascending row times ``t`` (s) wherever a step exceeds ``max_gap`` (s)."""
+    cuts = (np.flatnonzero(np.diff(t) > max_gap) + 1).tolist()
+    bounds = [0, *cuts, len(t)]
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
 def fuse_target(batch: MeasurementBatch, rate_hz: float,
                 settings: EstimatorSettings = EstimatorSettings(),
                 tick: Callable[..., None] = lambda *a, **k: None) -> FusionResult:
     """Estimate one target's trajectory from its measurement batch (see module docstring).
+
+    Each span (stage 0) is estimated by :func:`fuse_span`; a span that cannot be started (no
+    position fix in it) is left out with a warning and its rows counted in ``n_unstarted``.
+    ``tick(n, note)`` advances ``1 + noise_passes`` in all (progress display).
+
+    Raises:
+        DataError: no span can be started (the first span's reason).
+    """
+    slices = span_slices(batch.t, settings.max_gap)
+    if len(slices) == 1:
+        result = fuse_span(batch, rate_hz, settings, tick)
+        return replace(result, spans=((float(batch.t[0]), float(batch.t[-1])),))
+    done: list[FusionResult] = []
+    unstarted: dict[int, int] = {}
+    first_error: DataError | None = None
+    ticked = 0.0
+    for sl in slices:
+        part = batch.rows(sl)
+        share = len(part) / len(batch)
+
+        def span_tick(n: int = 1, note: str = "", share: float = share) -> None:
+            nonlocal ticked
+            before = int(ticked)
+            ticked += n * share
+            if int(ticked) > before:
+                tick(int(ticked) - before, note)
+
+        try:
+            done.append(fuse_span(part, rate_hz, settings, span_tick))
+        except DataError as exc:
+            first_error = first_error or exc
+            log.warning("span %.3f to %.3f s (%d rows) left out: %s", part.t[0], part.t[-1],
+                        len(part), exc)
+            for i, c in zip(*np.unique(part.sensor, return_counts=True)):
+                unstarted[int(i)] = unstarted.get(int(i), 0) + int(c)
+    if not done:
+        assert first_error is not None
+        raise first_error
+    if int(ticked) < 1 + settings.noise_passes:
+        tick(1 + settings.noise_passes - int(ticked), "")
+    return _concat(done, unstarted)
+
+
+def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResult:
+    """One result from the results of consecutive spans."""
+    offsets = np.cumsum([0] + [len(p.epoch_t) for p in parts[:-1]])
+    noise: dict[tuple[int, int], float] = {}
+    weight: dict[tuple[int, int], int] = {}
+    for p in parts:                       # row-weighted mean variance of each sensor's noise
+        for key, sig in p.noise.items():
+            n = int((p.batch.sensor == key[0]).sum())
+            noise[key] = noise.get(key, 0.0) + n * sig * sig
+            weight[key] = weight.get(key, 0) + n
+    noise = {k: float(np.sqrt(v / max(weight[k], 1))) for k, v in noise.items()}
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in parts])
+
+    return FusionResult(
+        epoch_t=cat("epoch_t"), xs=cat("xs"), Ps=cat("Ps"), grid=cat("grid"),
+        batch=concat_batches([p.batch for p in parts]),
+        meas_epoch=np.concatenate([p.meas_epoch + o for p, o in zip(parts, offsets)]),
+        used=cat("used"), nis=cat("nis"), dof=cat("dof"), res=cat("res"), hph=cat("hph"),
+        q=cat("q"), noise=noise, n_resets=sum(p.n_resets for p in parts),
+        spans=tuple((float(p.batch.t[0]), float(p.batch.t[-1])) for p in parts),
+        n_unstarted=unstarted)
+
+
+def fuse_span(batch: MeasurementBatch, rate_hz: float,
+              settings: EstimatorSettings = EstimatorSettings(),
+              tick: Callable[..., None] = lambda *a, **k: None) -> FusionResult:
+    """Estimate the trajectory over one span of rows (stages 1-5 of the module docstring).
 
     ``tick(n, note)`` is called once per pass (progress display).
     """

@@ -42,7 +42,8 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
-                         lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h))
+                         lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
+                         spans=result.spans)
 
 
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,

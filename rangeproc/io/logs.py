@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -43,3 +44,29 @@ class SensorLog:
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
+
+
+def select_rows(log: SensorLog, keep: np.ndarray) -> SensorLog:
+    """A new log holding only the rows where ``keep`` (N,) bool is True (arrays read-only)."""
+    def take(a: np.ndarray | None) -> np.ndarray | None:
+        if a is None:
+            return None
+        out = a[keep]
+        out.flags.writeable = False
+        return out
+
+    columns = {k: take(v) for k, v in log.columns.items()}
+    return SensorLog(sensor_id=log.sensor_id, kind=log.kind, time=take(log.time),
+                     columns=MappingProxyType(columns), row=take(log.row),
+                     track_id=take(log.track_id), station=take(log.station), n_read=log.n_read)
+
+
+def replace_columns(log: SensorLog, columns: Mapping[str, np.ndarray]) -> SensorLog:
+    """A new log with some measurement columns replaced (same rows; arrays made read-only)."""
+    merged = dict(log.columns)
+    for k, v in columns.items():
+        v.flags.writeable = False
+        merged[k] = v
+    return SensorLog(sensor_id=log.sensor_id, kind=log.kind, time=log.time,
+                     columns=MappingProxyType(merged), row=log.row, track_id=log.track_id,
+                     station=log.station, n_read=log.n_read)

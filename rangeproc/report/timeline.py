@@ -23,6 +23,8 @@ from rangeproc.report.common import (
 )
 from rangeproc.results import TrackEstimate
 
+#: Edge colour of the hatched gaps between a target's separately estimated spans.
+GAP_COLOR = "0.45"
 #: Spans closer than this many median sample intervals are merged.
 GAP_SAMPLES = 3.0
 #: Horizontal resolution (cells across the time axis) of merged spans, ticks and n_sensors strip.
@@ -105,9 +107,15 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
             cells = _epoch_cells(tt, ns, edges, step)
         mappable = ax.pcolormesh(edges, [y - 0.36, y + 0.36], np.ma.masked_invalid(cells)[None],
                                  cmap=cmap, norm=norm, shading="flat")
+        gaps = [(a[1] - t0, b[0] - a[1]) for a, b in zip(tr.spans[:-1], tr.spans[1:])]
+        if gaps:   # unobserved beyond the gap limit: separate spans, no output epochs
+            ax.broken_barh(gaps, (y - 0.36, 0.72), facecolors="none", edgecolors=GAP_COLOR,
+                           hatch="////", lw=0.6, zorder=2)
         cov = 100.0 * float(np.mean(np.asarray(tr.n_sensors) > 0)) if ns.size else 0.0
-        ax.text(1.005, y, f"{cov:.1f} % epochs\nwith data", transform=trans, fontsize=7,
-                va="center", ha="left")
+        note = f"{cov:.1f} % epochs\nwith data"
+        if gaps:
+            note += f", {len(tr.spans)} spans"
+        ax.text(1.005, y, note, transform=trans, fontsize=7, va="center", ha="left")
         labels.append(f"{tr.target_id}\nn_sensors")
     if tracks:
         ax.axhline(len(tracks) - 0.5, color="0.3", lw=1.0)
@@ -124,6 +132,9 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
     kinds = list(dict.fromkeys(v.kind for v in views))
     handles = [Patch(fc=KIND_COLORS.get(k, CYCLE[0]), label=f"{k}: used data") for k in kinds]
     handles.append(Patch(fc=REJECT_COLOR, label="rejected point"))
+    if any(len(tr.spans) > 1 for tr in tracks):
+        handles.append(Patch(fc="none", ec=GAP_COLOR, hatch="////",
+                             label="unobserved beyond the gap limit: no output"))
     fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False,
                bbox_to_anchor=(0.48, 1.0 - 0.42 / fig.get_figheight()), fontsize=8)
     if nrow == 0:
