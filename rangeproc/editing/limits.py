@@ -8,19 +8,27 @@ row is kept. A row with nothing left measured is removed.
 
 Limits (SI; the bounds are settings of :class:`Limits`, in ``[processing]``):
 
-* range (radar, theodolite laser): ``0 < range <= max_range``;
+* range (radar, theodolite laser): ``MIN_RANGE <= range <= max_range``;
 * elevation: ``|E| <= pi/2``; azimuth and INS roll/yaw: ``|angle| <= 4 pi`` (any wrapped or
   unwrapped log fits; beyond that the value carries no angle); INS pitch ``|theta| <= pi/2``;
 * height (GPS, INS): ``MIN_HEIGHT <= h <= max_range``;
 * range rate (radar, MISTRAM) ``|Rdot| <= max_speed``; velocity (GPS, INS) ``|v| <= max_speed``
   (all three components edited together);
-* ``speed`` (GPS; fixed-site radar/theodolite with range, per track): a position fix ``p_k``
-  whose displacement to *both* neighbours exceeds ``max_speed * |dt| + tol`` (an isolated
-  impossible jump); at either end of a sequence, the first/last fix whose one step is
-  impossible while the next step is plausible. ``tol = 10 (sigma_a + sigma_b) + 10 median |dp|``
-  with the stated position sigma of each fix and the sequence's median step (the noise of a
-  fast sensor can exceed ``max_speed * dt``). Plots (radar rows without ``track_id``) and
-  platform-mounted sensors are not speed-checked (several objects, a rotating deck frame).
+* ``speed``: a step between consecutive position fixes is impossible when the displacement
+  exceeds ``max_speed * |dt| + tol``, ``tol = 10 (sigma_a + sigma_b) + 10 median |dp|`` with
+  the stated position sigma of each fix and the sequence's median step (the noise of a fast
+  sensor can exceed ``max_speed * dt``).
+  GPS (one receiver on one object, it cannot jump): the fixes are cut into segments at the
+  impossible steps; the longest segment is the anchor, and going outward from it each segment
+  is kept only when the step from the last kept fix to it is possible (a run of wild fixes at
+  the start, or a stretch of corrupt ones, is edited however long it is, as long as it is
+  shorter than the good data).
+  Fixed-site radar/theodolite with range, per track: only an isolated spike, a fix whose steps
+  to *both* neighbours are impossible (at either end, the first/last fix whose one step is
+  impossible while the next step is possible): a track may legitimately jump to another
+  object (a lock swap), which is for the association stage to sort out. Plots (radar rows
+  without ``track_id``) and platform-mounted sensors are not speed-checked (several objects,
+  a rotating deck frame).
 """
 from __future__ import annotations
 
@@ -34,6 +42,8 @@ from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
 from rangeproc.frames.geodesy import aer_to_enu, geodetic_to_ecef
 from rangeproc.io.logs import SensorLog, replace_columns, select_rows
 
+#: Shortest range accepted (m): below any radar's blind range or laser ranger's minimum.
+MIN_RANGE = 1.0
 #: Lowest ellipsoidal height accepted (m): below the deepest ocean trench and geoid low.
 MIN_HEIGHT = -12_000.0
 #: Largest |azimuth|, |roll|, |yaw| accepted (rad).
@@ -61,7 +71,7 @@ def _bounds(kind: str, lim: Limits) -> dict[str, tuple[float, float]]:
     """column -> (low, high) of the scalar limits of one sensor kind."""
     angle = (-MAX_WRAPPED_ANGLE, MAX_WRAPPED_ANGLE)
     elevation = (-0.5 * math.pi, 0.5 * math.pi)
-    rng = (np.nextafter(0.0, 1.0), lim.max_range)
+    rng = (MIN_RANGE, lim.max_range)
     rate = (-lim.max_speed, lim.max_speed)
     height = (MIN_HEIGHT, lim.max_range)
     return {
@@ -168,6 +178,10 @@ def speed_spikes(log: SensorLog, settings: SensorSettings, limits: Limits
     cols, have, pos, sigma = got
     bad = np.zeros(len(log), dtype=bool)
     track = log.track_id if log.track_id is not None else np.zeros(len(log), dtype=np.int64)
+    if log.kind == "gps":
+        rows = np.flatnonzero(have)
+        bad[rows] = _unreachable(log.time[rows], pos[rows], sigma[rows], limits.max_speed)
+        return cols, bad
     for tid in np.unique(track[have]):
         if tid < 0:                                   # plots: several objects, not one path
             continue
@@ -176,18 +190,61 @@ def speed_spikes(log: SensorLog, settings: SensorSettings, limits: Limits
     return cols, bad
 
 
+def _possible(t: np.ndarray, p: np.ndarray, sigma: np.ndarray, scale: float,
+              max_speed: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """True where the step from fix ``a`` to fix ``b`` (index arrays) is physically possible."""
+    tol = SPEED_SIGMA_FACTOR * (sigma[a] + sigma[b]) + SPEED_STEP_FACTOR * scale
+    with np.errstate(invalid="ignore", over="ignore"):
+        dist = np.linalg.norm(p[b] - p[a], axis=-1)
+        return ~(dist > max_speed * np.abs(t[b] - t[a]) + tol)
+
+
+def _median_step(p: np.ndarray) -> float:
+    return float(np.median(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+
+
 def _spikes(t: np.ndarray, p: np.ndarray, sigma: np.ndarray, max_speed: float) -> np.ndarray:
-    """(M,) bool over one time-ordered sequence of fixes (see module docstring)."""
+    """(M,) bool over one time-ordered sequence of fixes: isolated impossible spikes."""
     m = t.size
     out = np.zeros(m, dtype=bool)
     if m < 3:
         return out
-    step = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    scale = float(np.median(step))
-    tol = SPEED_SIGMA_FACTOR * (sigma[1:] + sigma[:-1]) + SPEED_STEP_FACTOR * scale
-    with np.errstate(invalid="ignore", over="ignore"):
-        wrong = step > max_speed * np.diff(t) + tol        # (M-1,) step k -> k+1 impossible
+    k = np.arange(m - 1)
+    wrong = ~_possible(t, p, sigma, _median_step(p), max_speed, k, k + 1)
     out[1:-1] = wrong[:-1] & wrong[1:]
     out[0] = wrong[0] and not wrong[1]
     out[-1] = wrong[-1] and not wrong[-2]
+    return out
+
+
+def _unreachable(t: np.ndarray, p: np.ndarray, sigma: np.ndarray,
+                 max_speed: float) -> np.ndarray:
+    """(M,) bool over one time-ordered sequence of fixes of one object: the fixes not reachable
+    from the longest segment without an impossible step (module docstring, GPS)."""
+    m = t.size
+    out = np.zeros(m, dtype=bool)
+    if m < 2:
+        return out
+    scale = _median_step(p)
+    k = np.arange(m - 1)
+    wrong = ~_possible(t, p, sigma, scale, max_speed, k, k + 1)
+    if not wrong.any():
+        return out
+    starts = np.concatenate([[0], np.flatnonzero(wrong) + 1])
+    ends = np.concatenate([starts[1:], [m]])                # segment j: rows starts[j]:ends[j]
+    anchor = int(np.argmax(ends - starts))
+    out[:] = True
+    out[starts[anchor]:ends[anchor]] = False
+    first = starts[anchor]                                  # earliest kept fix so far
+    for j in range(anchor - 1, -1, -1):
+        if _possible(t, p, sigma, scale, max_speed, np.array([ends[j] - 1]),
+                     np.array([first]))[0]:
+            out[starts[j]:ends[j]] = False
+            first = starts[j]
+    last = ends[anchor] - 1                                 # latest kept fix so far
+    for j in range(anchor + 1, starts.size):
+        if _possible(t, p, sigma, scale, max_speed, np.array([last]),
+                     np.array([starts[j]]))[0]:
+            out[starts[j]:ends[j]] = False
+            last = ends[j] - 1
     return out

@@ -13,6 +13,7 @@ from rangeproc.config import Config
 from rangeproc.editing.limits import Limits, apply_limits
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.timecheck import check_overlap, edit_time
+from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog
 
 log = logging.getLogger(__name__)
@@ -37,6 +38,12 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord
             (log.warning if "time" in counts else log.info)(
                 "%s: edited before estimation: %s", s.id,
                 ", ".join(f"{n} {reason}" for reason, n in counts.items()))
+        if s.kind == "ins" and len(edited) < 2 <= len(logs[s.id]):
+            first = record.examples(s.id, 1)[0]
+            raise DataError(f"{s.file.name}: fewer than 2 usable rows left after editing "
+                            f"({len(logs[s.id]) - len(edited)} rows removed, first row "
+                            f"{first['row']}, column '{first['component']}', reason "
+                            f"{first['reason']}): the platform's attitude is unusable")
         out[s.id] = edited
     check_overlap(out, cfg.sensors, margin=p.time_margin)
     return out

@@ -103,3 +103,30 @@ def test_gps_height_and_velocity_limits() -> None:
     assert np.isnan(out.columns["height"][2]) and np.isfinite(out.columns["lat"][2])
     assert np.isnan([out.columns[c][4] for c in ("ve", "vn", "vu")]).all()
     assert rec.counts("G1") == {"limit": 4}
+
+
+def gps_log(lat: np.ndarray) -> tuple[SensorLog, SensorSettings]:
+    n = lat.size
+    cols = {"lat": lat, "lon": np.full(n, -117.0), "height": np.full(n, 3000.0),
+            "ve": np.full(n, np.nan), "vn": np.full(n, np.nan), "vu": np.full(n, np.nan)}
+    log = SensorLog(sensor_id="G1", kind="gps", time=np.arange(n) * 0.1,
+                    columns=MappingProxyType(cols), row=np.arange(1, n + 1), track_id=None,
+                    station=None, n_read=n)
+    return log, SensorSettings(id="G1", kind="gps", file=Path("/d/G1.csv"),
+                               sigma=DEFAULT_SIGMAS["gps"])
+
+
+def test_gps_run_of_wild_fixes_at_the_start_is_cut_from_the_longest_segment() -> None:
+    lat = 35.0 + 1e-5 * np.arange(300)               # ~100 m/s northwards
+    lat[:20] += 0.5                                  # 55 km off for 2 s
+    lat[150:153] -= 0.2                              # a short corrupt stretch mid-flight
+    log, s = gps_log(lat)
+    _, bad = speed_spikes(log, s, Limits())
+    assert np.flatnonzero(bad).tolist() == list(range(20)) + [150, 151, 152]
+
+
+def test_gps_plausible_manoeuvre_is_not_cut() -> None:
+    lat = 35.0 + 1e-5 * np.arange(300) + 1e-4 * (np.arange(300) > 150)   # 11 m step: noise
+    log, s = gps_log(lat)
+    _, bad = speed_spikes(log, s, Limits())
+    assert not bad.any()
