@@ -126,7 +126,7 @@ def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
 def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutput:
     """Process one flight: read the config and logs, fuse every target, write the outputs.
 
-    ``clock`` times the stages (read, assemble, fuse, write, report) and drives the progress
+    ``clock`` times the stages (read, screen, assemble, fuse, write, report) and drives the progress
     display; the default shows nothing.
     """
     from rangeproc.report.figures import write_report
@@ -139,7 +139,8 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     with clock.stage("read", len(cfg.sensors)) as tick:
         raw = read_all(cfg, tick)
     edits = EditRecord()
-    logs = screen_logs(cfg, raw, edits)
+    with clock.stage("screen", len(cfg.sensors)) as tick:
+        logs = screen_logs(cfg, raw, edits, tick)
     with clock.stage("assemble", sum(s.kind != "ins" for s in cfg.sensors)) as tick:
         rows = assemble_all(cfg, frame, logs, tick)
     settings = estimator_settings(cfg)

@@ -8,6 +8,7 @@ refused). Every removed row or component goes into the run's :class:`EditRecord`
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 from rangeproc.config import Config
 from rangeproc.editing.limits import Limits, apply_limits
@@ -19,9 +20,11 @@ from rangeproc.io.logs import SensorLog
 log = logging.getLogger(__name__)
 
 
-def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord
-                ) -> dict[str, SensorLog]:
+def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
+                tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, SensorLog]:
     """Edited logs of every sensor (new dict; the input logs are not changed).
+
+    ``tick(1, sensor_id)`` is called after each sensor (progress display).
 
     Raises:
         DataError: a sensor whose every time stamp is impossible, or whose rows do not come
@@ -45,5 +48,6 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord
                             f"{first['row']}, column '{first['component']}', reason "
                             f"{first['reason']}): the platform's attitude is unusable")
         out[s.id] = edited
+        tick(1, s.id)
     check_overlap(out, cfg.sensors, margin=p.time_margin)
     return out
