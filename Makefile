@@ -4,8 +4,10 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SEEDS ?= 1 2 3 4 5 6
+FUZZ_CASES ?= 2000
+FUZZ_SEED ?= 1
 
-.PHONY: install demo test bench bench-quick reproduce sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick reproduce sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -24,6 +26,10 @@ demo: $(STAMP)
 ## test: the test suite.
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+## fuzz: a fuzz campaign of FUZZ_CASES mutated runs in two processes; prints a table of outcomes.
+fuzz: $(STAMP)
+	$(BIN)/python bench/fuzz.py --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
 ## bench: time the pipeline and filter kernels against FilterPy / Stone Soup.
 bench: $(STAMP)

@@ -162,8 +162,8 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
 HEIGHT_BOUNDS = (-12_000.0, 1.0e9)
 #: |time_offset| (s): the same bound as the time stamps themselves (editing.timecheck)
 MAX_TIME_OFFSET = 1.0e10
-#: output.rate_hz (Hz)
-MAX_RATE_HZ = 1000.0
+#: output.rate_hz (Hz): one epoch per 1000 s to 1000 per second
+RATE_HZ_BOUNDS = (1e-3, 1000.0)
 #: processing.noise_passes
 MAX_NOISE_PASSES = 20
 #: processing.process_noise (m^2/s^5)
@@ -369,9 +369,7 @@ class _Validator:
         t = self.table(x, "output", ("dir", "rate_hz"))
         out_dir = Path(self.string(t.get("dir", "out"), "output.dir")).expanduser()
         rate = self.positive(t.get("rate_hz", 10.0), "output.rate_hz")
-        if rate > MAX_RATE_HZ:
-            raise self.error("output.rate_hz", f"{rate:g} Hz is above the maximum "
-                                               f"{MAX_RATE_HZ:g} Hz")
+        rate = self.bounded(rate, "output.rate_hz", *RATE_HZ_BOUNDS, "Hz")
         return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate)
 
     def targets(self, x: object) -> tuple[TargetSettings, ...]:

@@ -112,3 +112,23 @@ def test_a_long_gap_splits_the_output_into_spans(scenario, cli, explain) -> None
     inside = (fused.time > spans[0][1]) & (fused.time < spans[1][0])
     assert not inside.any()                              # no epochs in the gap
     assert len(fused) < 10.0 * (spans[0][1] - spans[0][0] + spans[1][1] - spans[1][0]) + 2
+
+
+def test_ins_without_usable_attitude_is_refused_naming_its_file(scenario, cli) -> None:
+    text = (scenario / "SHIP_INS.csv").read_text().splitlines()
+    head, rows = text[0], text[1:]
+    col = head.split(",").index("roll")
+    blank = [",".join(" " if i == col else v for i, v in enumerate(r.split(","))) for r in rows]
+    (scenario / "SHIP_INS.csv").write_text("\n".join([head, *blank]) + "\n")
+    res = cli(["run", "--quiet", scenario / CONFIG])
+    assert res.exit_code == 2, res.stderr
+    assert res.stderr.startswith("rangeproc: error: SHIP_INS.csv: fewer than 2 usable rows")
+    assert res.stderr.count("\n") == 1
+
+
+def test_mistram_rows_all_at_one_time_run_clean(scenario, cli, explain) -> None:
+    edit_csv(scenario, "MISTRAM.csv", lambda df: df.assign(time=df["time"].iloc[3000]))
+    res = cli(["run", "--quiet", scenario / CONFIG])
+    assert res.exit_code == 0, explain(res)
+    summary = json.loads((scenario / "out" / "summary.json").read_text())
+    assert summary["sensors"]["MISTRAM"]["n_edited"]["time"] == 9584 - 4

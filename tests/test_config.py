@@ -268,7 +268,8 @@ ERROR_CASES = [
      "processing.process_noise:", "must be > 0"),
     ("processing-not-table", "processing = 3\n" + BASE, "processing:", "expected a table"),
     # absurd but finite values: plausibility bounds
-    ("rate-huge", edit(RATE, "rate_hz = 1e9"), "output.rate_hz:", "above the maximum 1000 Hz"),
+    ("rate-huge", edit(RATE, "rate_hz = 1e9"), "output.rate_hz:", "outside the plausible range"),
+    ("rate-tiny", edit(RATE, "rate_hz = 1e-308"), "output.rate_hz:", "outside the plausible range"),
     ("origin-height-huge", edit("height = 700.0", "height = 1e300"), "range.origin.height:",
      "outside the plausible range"),
     ("time-offset-huge", edit("range = 6.0", "range = 6.0 }\ntime_offset = 1e15\n#"),

@@ -41,13 +41,23 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
             (log.warning if "time" in counts else log.info)(
                 "%s: edited before estimation: %s", s.id,
                 ", ".join(f"{n} {reason}" for reason, n in counts.items()))
-        if s.kind == "ins" and len(edited) < 2 <= len(logs[s.id]):
-            first = record.examples(s.id, 1)[0]
-            raise DataError(f"{s.file.name}: fewer than 2 usable rows left after editing "
-                            f"({len(logs[s.id]) - len(edited)} rows removed, first row "
-                            f"{first['row']}, column '{first['component']}', reason "
-                            f"{first['reason']}): the platform's attitude is unusable")
+        if s.kind == "ins" and len(edited) < 2 and any(o.platform == s.id
+                                                        for o in cfg.sensors):
+            raise _unusable_ins(s.file.name, len(logs[s.id]) - len(edited),
+                                record.examples(s.id, 1))
         out[s.id] = edited
         tick(1, s.id)
     check_overlap(out, cfg.sensors, margin=p.time_margin)
     return out
+
+
+def _unusable_ins(name: str, n_edited: int, first: list[dict[str, object]]) -> DataError:
+    """An INS with fewer than two usable rows: its platform's sensors have no attitude."""
+    if first:
+        e = first[0]
+        why = (f"{n_edited} rows removed by editing, first row {e['row']}, column "
+               f"'{e['component']}', reason {e['reason']}")
+    else:
+        why = "every other row lacks a roll, pitch, yaw, lat, lon or height value"
+    return DataError(f"{name}: fewer than 2 usable rows ({why}): the platform's attitude "
+                     "is unusable")

@@ -270,7 +270,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
             "agreeing" with a track that drifted along its line of sight), the kinematic
             covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` (at most
-            ``MAX_RESET_INFLATION``) so the track
+            ``MAX_RESET_INFLATION``, and at most once per epoch: thousands of rows sharing
+            one time stamp must not compound it) so the track
             re-acquires instead of rejecting that sensor for ever. 0 disables.
         x_lin: (E, n) linearisation states per epoch (the previous smoothed trajectory: one
             Gauss-Newton step of the iterated extended Kalman smoother), or an array with zero
@@ -326,6 +327,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     loglik = 0.0
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
     n_resets = 0
+    last_reset = -1
     i = 0
     for k in range(E):
         if k > 0:
@@ -386,7 +388,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 rejected[i] = mask
                 consecutive[sensor[i]] += 1
                 loglik -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
-                if reset_after > 0 and consecutive[sensor[i]] >= reset_after:
+                if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
+                        and last_reset != k:
                     factor = min(max(reset_inflation, 4.0 * val / gate[m]),
                                  MAX_RESET_INFLATION)
                     for a in range(min(n, N_KINEMATIC)):
@@ -394,6 +397,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                             P[a, b] *= factor
                     consecutive[:] = 0
                     n_resets += 1
+                    last_reset = k
             ll_rows[i] = loglik - ll_before
             i += 1
         for a in range(n):

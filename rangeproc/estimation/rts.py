@@ -28,6 +28,37 @@ from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, p
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
 
+#: Relative diagonal loadings tried when a predicted covariance fails its Cholesky factorisation
+#: to rounding (thousands of updates at one epoch can leave P_{k|k} a hair indefinite).
+JITTER = (1e-12, 1e-10, 1e-8, 1e-6)
+
+
+@njit(cache=True, error_model="numpy")
+def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: float,
+                       q: float) -> bool:
+    """Recompute ``P_pred = F P_f F^T + Q`` and factor it with the smallest diagonal loading
+    ``jitter * max(diag)`` of :data:`JITTER` that makes it positive definite (in place).
+
+    The loading is a negligible extra process noise at that one step; False when even the
+    largest fails (the covariance is then genuinely broken)."""
+    n = P_f.shape[0]
+    for jitter in JITTER:
+        scale = 0.0
+        for i in range(n):
+            for j in range(n):
+                P_pred[i, j] = P_f[i, j]
+        predict_cov(P_pred, T, dt, q)
+        for i in range(n):
+            scale = max(scale, abs(P_pred[i, i]))
+        if not scale > 0.0:
+            return False
+        for i in range(n):
+            P_pred[i, i] += jitter * scale
+        if cholesky_inplace(P_pred, n):
+            return True
+    return False
+
+
 @njit(cache=True, error_model="numpy")
 def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
                want_em: bool = True, in_place: bool = False):
@@ -78,7 +109,7 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
         predict_state(x_pred, dt)
         predict_cov(P_pred, T, dt, q)                  # P_pred = F P_f F^T + Q
         left_f(P_f, Ct, dt)                            # F P_f
-        if not cholesky_inplace(P_pred, n):
+        if not cholesky_inplace(P_pred, n) and not _jittered_cholesky(P_pred, P_f, T, dt, q):
             raise FloatingPointError("predicted covariance not positive definite in RTS")
         chol_solve_inplace(P_pred, n, Ct, n)           # C^T = P_pred^-1 F P_f (in place)
         for i in range(n):

@@ -107,3 +107,23 @@ def test_an_ins_is_checked_against_the_sensors_on_its_platform() -> None:
     cfg = [settings("R1"), settings("SHIP", "ins"), settings("S1", platform="SHIP")]
     with pytest.raises(DataError, match="SHIP.csv: sensor SHIP .* the sensors on its platform"):
         check_overlap(logs, cfg, margin=60.0)
+
+
+def test_repeated_stamps_are_per_series_and_plots_may_share_a_stamp() -> None:
+    t = np.array([5.0, 5.0, 5.0, 5.0, 6.0, 6.0])
+    row = np.arange(1, 7)
+    station = np.array([0, 1, 0, 1, 0, 1])               # MISTRAM: one value per station
+    assert repeated_stamps(t, row, station).tolist() == [False, False, True, True, False, False]
+    track = np.array([-1, -1, 3, 3, -1, 4])              # plots (-1) share stamps freely
+    assert repeated_stamps(t, row, track).tolist() == [False, False, False, True, False, False]
+
+
+def test_mistram_rows_all_at_one_time_keep_one_per_station() -> None:
+    n = 40
+    log = make_log("M", "mistram", np.full(n, 100.0))
+    log = SensorLog(sensor_id="M", kind="mistram", time=log.time, columns=log.columns,
+                    row=log.row, track_id=None, station=np.arange(n) % 4, n_read=n)
+    rec = EditRecord()
+    out = edit_time(log, settings("M", "mistram"), rec, max_gap=60.0)
+    assert sorted(out.station.tolist()) == [0, 1, 2, 3]
+    assert rec.counts("M") == {"time": n - 4}
