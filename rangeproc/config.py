@@ -46,10 +46,28 @@ class OutputSettings:
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
+class InitialState:
+    """A target's known state (``[[targets]] initial``), for data that cannot start a track
+    by itself (e.g. MISTRAM range rates alone).
+
+    time: s on the range time scale; position: WGS-84 ``lat``, ``lon`` (deg), ``height`` (m);
+    velocity ``ve, vn, vu`` (m/s) in the range ENU frame; ``sigma_position`` (m) and
+    ``sigma_velocity`` (m/s): 1-sigma per axis.
+    """
+
+    time: float
+    position: Geodetic
+    velocity: tuple[float, float, float]
+    sigma_position: float
+    sigma_velocity: float
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
 class TargetSettings:
-    """``[[targets]]`` entry."""
+    """``[[targets]]`` entry: ``id`` and the optional ``initial`` state."""
 
     id: str
+    initial: InitialState | None = None
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -152,6 +170,13 @@ _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
 _SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
                 "time_offset", "sigma", "target", "stations", "allow_disjoint_time")
 _GEODETIC_KEYS = ("lat", "lon", "height")
+_INITIAL_KEYS = ("time", "lat", "lon", "height", "ve", "vn", "vu", "sigma_position",
+                 "sigma_velocity")
+#: defaults of ``initial`` sigmas when not stated: 1-sigma per axis (m, m/s)
+INITIAL_SIGMA_POSITION = 100.0
+INITIAL_SIGMA_VELOCITY = 50.0
+#: |initial velocity| components (m/s)
+MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
                     "filter", "max_gap", "time_margin", "max_speed", "max_range")
 
@@ -376,12 +401,31 @@ class _Validator:
         items = self.array(x, "targets")
         if not items:
             raise self.error("targets", "empty (omit [[targets]] to use the default target T1)")
-        ids = []
+        ids, initial = [], []
         for i, item in enumerate(items):
-            t = self.table(item, f"targets[{i}]", ("id",))
+            t = self.table(item, f"targets[{i}]", ("id", "initial"))
             ids.append(self.string(self.required(t, "id", f"targets[{i}]"), f"targets[{i}].id"))
+            initial.append(self.initial(t["initial"], f"targets[{i}].initial")
+                           if "initial" in t else None)
         self.unique_ids(ids, lambda i: f"targets[{i}].id", "target")
-        return tuple(TargetSettings(id=ident) for ident in ids)
+        return tuple(TargetSettings(id=ident, initial=init) for ident, init in zip(ids, initial))
+
+    def initial(self, x: object, key: str) -> InitialState:
+        t = self.table(x, key, _INITIAL_KEYS)
+        time = self.bounded(self.required(t, "time", key), f"{key}.time", -MAX_TIME_OFFSET,
+                            MAX_TIME_OFFSET, "s")
+        position = self.geodetic({k: t[k] for k in _GEODETIC_KEYS if k in t}, key)
+        velocity = tuple(self.bounded(t.get(k, 0.0), f"{key}.{k}", -MAX_SPEED, MAX_SPEED, "m/s")
+                         for k in ("ve", "vn", "vu"))
+        sp = self.positive(t.get("sigma_position", INITIAL_SIGMA_POSITION),
+                           f"{key}.sigma_position")
+        sv = self.positive(t.get("sigma_velocity", INITIAL_SIGMA_VELOCITY),
+                           f"{key}.sigma_velocity")
+        return InitialState(time=time, position=position, velocity=velocity,  # type: ignore
+                            sigma_position=self.bounded(sp, f"{key}.sigma_position",
+                                                        *SIGMA_BOUNDS, "m"),
+                            sigma_velocity=self.bounded(sv, f"{key}.sigma_velocity",
+                                                        *SIGMA_BOUNDS, "m/s"))
 
     def processing(self, x: object) -> ProcessingSettings:
         t = self.table(x, "processing", _PROCESSING_KEYS)

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import rangeproc
-from rangeproc.config import Config, SensorSettings, load_config
+from rangeproc.config import Config, SensorSettings, TargetSettings, load_config
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.errors import ConfigError, DataError
@@ -28,6 +28,8 @@ from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.initialise import NoPositionFix, Prior
+from rangeproc.fusion.initialise import given_prior as prior_from_state
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.io.logs import SensorLog
 from rangeproc.io.output import fused_table
@@ -69,6 +71,26 @@ def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
         logs[s.id] = read_sensor(s)
         tick(1, s.id)
     return logs
+
+
+def given_prior(target: TargetSettings, frame: RangeFrame) -> Prior | None:
+    """The target's ``initial`` state in the range ENU frame, or None."""
+    init = target.initial
+    if init is None:
+        return None
+    p = init.position
+    return prior_from_state(init.time, frame.to_enu(p.lat, p.lon, p.height).reshape(3),
+                            np.asarray(init.velocity), init.sigma_position, init.sigma_velocity)
+
+
+def _needs_initial(cfg: Config, target_id: str, why: str) -> DataError:
+    """Exit-2 error for a target whose data cannot start a track: show the key to give."""
+    index = next((i for i, t in enumerate(cfg.targets) if t.id == target_id), 0)
+    return DataError(
+        f"{cfg.path.name}: targets[{index}].initial: target {target_id}: {why}; give its "
+        f"state, e.g. [[targets]] id = \"{target_id}\" initial = {{ time = ..., lat = ..., "
+        "lon = ..., height = ..., ve = ..., vn = ..., vu = ..., sigma_position = 10.0, "
+        "sigma_velocity = 5.0 }")
 
 
 def target_of(sensor: SensorSettings, cfg: Config) -> str:
@@ -173,9 +195,13 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                 continue
             batch = merge(parts, sensor_ids)
             del parts
-            fused.append((tgt.id, fuse_target(
-                batch, cfg.output.rate_hz, settings,
-                tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"))))
+            try:
+                fused.append((tgt.id, fuse_target(
+                    batch, cfg.output.rate_hz, settings,
+                    tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"),
+                    prior=given_prior(tgt, frame))))
+            except NoPositionFix as exc:
+                raise _needs_initial(cfg, tgt.id, str(exc)) from None
             del batch
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz)

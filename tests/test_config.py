@@ -165,7 +165,7 @@ ERROR_CASES = [
      "unknown key (expected one of: lat, lon, height)"),
     ("unknown-output", edit(RATE, "rate = 10.0"), "output.rate:", "unknown key"),
     ("unknown-target", '[[targets]]\nid = "T1"\nname = "x"\n\n' + BASE, "targets[0].name:",
-     "unknown key (expected one of: id)"),
+     "unknown key (expected one of: id, initial)"),
     ("unknown-sensor", after(GPS_FILE, 'colour = "red"'), "sensors[3].colour:",
      "unknown key"),
     ("unknown-site", edit("height = 713.0", "height = 713.0, datum = 1"),
@@ -463,3 +463,22 @@ def test_time_offset_and_lever_arm_values(tmp_path: Path) -> None:
     assert by_id["T1V"].time_offset == -0.125
     assert by_id["S1"].lever_arm == (1.0, -2.5, 3.0)
     assert by_id["R1"].lever_arm == (0.0, 0.0, 0.0)
+
+
+def test_target_initial_state_is_parsed_and_checked(tmp_path: Path) -> None:
+    init = ('initial = { time = 1234.5, lat = 34.6, lon = -117.8, height = 4500.0, ve = 120.0, '
+            'vn = -35.0, vu = 4.0, sigma_position = 10.0, sigma_velocity = 5.0 }\n')
+    text = '[[targets]]\nid = "T1"\n' + init + "\n" + BASE
+    cfg = load_config(write(tmp_path, text))
+    got = cfg.targets[0].initial
+    assert got is not None and got.time == 1234.5 and got.velocity == (120.0, -35.0, 4.0)
+    assert got.position.height == 4500.0 and got.sigma_position == 10.0
+    for old, new, key in (("time = 1234.5, ", "", "targets[0].initial.time: missing"),
+                          ("lat = 34.6, ", "", "targets[0].initial.lat: missing"),
+                          ("sigma_velocity = 5.0", "sigma_velocity = -1.0",
+                           "targets[0].initial.sigma_velocity: must be > 0")):
+        with pytest.raises(ConfigError) as info:
+            load_config(write(tmp_path, text.replace(old, new, 1)))
+        assert key in str(info.value), str(info.value)
+    with pytest.raises(ConfigError, match=r"targets\[0\]\.initial\.speed: unknown key"):
+        load_config(write(tmp_path, text.replace("vu = 4.0", "speed = 4.0")))

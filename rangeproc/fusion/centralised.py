@@ -36,7 +36,7 @@ from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
-from rangeproc.fusion.initialise import initial_state
+from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 
 log = logging.getLogger(__name__)
 
@@ -157,25 +157,32 @@ def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
 
 def fuse_target(batch: MeasurementBatch, rate_hz: float,
                 settings: EstimatorSettings = EstimatorSettings(),
-                tick: Callable[..., None] = lambda *a, **k: None) -> FusionResult:
+                tick: Callable[..., None] = lambda *a, **k: None,
+                prior: Prior | None = None) -> FusionResult:
     """Estimate one target's trajectory from its measurement batch (see module docstring).
 
     Each span (stage 0) is estimated by :func:`fuse_span`; a span that cannot be started (no
     position fix in it) is left out with a warning and its rows counted in ``n_unstarted``.
-    ``tick(n, note)`` advances ``1 + noise_passes`` in all (progress display).
+    ``tick(n, note)`` advances ``1 + noise_passes`` in all (progress display). ``prior``: a
+    given state of the target, used by the span nearest to its time when that span has no
+    position fix to start from.
 
     Raises:
         DataError: no span can be started (the first span's reason).
     """
     slices = span_slices(batch.t, settings.max_gap)
+    if prior is not None:
+        dist = [max(batch.t[sl.start] - prior.t, prior.t - batch.t[sl.stop - 1], 0.0)
+                for sl in slices]
+        with_prior = int(np.argmin(dist))
     if len(slices) == 1:
-        result = fuse_span(batch, rate_hz, settings, tick)
+        result = fuse_span(batch, rate_hz, settings, tick, prior)
         return replace(result, spans=((float(batch.t[0]), float(batch.t[-1])),))
     done: list[FusionResult] = []
     unstarted: dict[int, int] = {}
     first_error: DataError | None = None
     ticked = 0.0
-    for sl in slices:
+    for j, sl in enumerate(slices):
         part = batch.rows(sl)
         share = len(part) / len(batch)
 
@@ -187,7 +194,8 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
                 tick(int(ticked) - before, note)
 
         try:
-            done.append(fuse_span(part, rate_hz, settings, span_tick))
+            done.append(fuse_span(part, rate_hz, settings, span_tick,
+                                  prior if prior is not None and j == with_prior else None))
         except DataError as exc:
             first_error = first_error or exc
             log.warning("span %.3f to %.3f s (%d rows) left out: %s", part.t[0], part.t[-1],
@@ -229,17 +237,28 @@ def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResul
 
 def fuse_span(batch: MeasurementBatch, rate_hz: float,
               settings: EstimatorSettings = EstimatorSettings(),
-              tick: Callable[..., None] = lambda *a, **k: None) -> FusionResult:
+              tick: Callable[..., None] = lambda *a, **k: None,
+              prior: Prior | None = None) -> FusionResult:
     """Estimate the trajectory over one span of rows (stages 1-5 of the module docstring).
 
-    ``tick(n, note)`` is called once per pass (progress display).
+    The track starts from the span's first position fixes; only when there are none (e.g.
+    range rates alone) from ``prior`` moved to the first epoch. ``tick(n, note)`` is called
+    once per pass (progress display).
+
+    Raises:
+        NoPositionFix: no position fix and no prior.
     """
     grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)
     epoch_t, meas_epoch, grid = _epochs(batch.t, grid_t)
     gate = gate_thresholds(settings.gate_probability)
     if settings.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
-    x0, P0 = initial_state(batch, float(epoch_t[0]))
+    try:
+        x0, P0 = initial_state(batch, float(epoch_t[0]))
+    except NoPositionFix:
+        if prior is None:
+            raise
+        x0, P0 = prior_at(prior, float(epoch_t[0]))
     if settings.process_noise is not None:
         q = np.full(len(epoch_t), settings.process_noise)
     else:

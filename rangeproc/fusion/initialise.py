@@ -1,5 +1,8 @@
-"""Automatic track initialisation from the first usable position fixes."""
+"""Track initialisation: automatic from the first usable position fixes, or from a given
+initial state (``[[targets]] initial``) where the data cannot start a track by themselves."""
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -11,6 +14,45 @@ from rangeproc.models.motion import N_KINEMATIC
 #: Prior 1-sigma around the fitted start (m, m/s, m/s^2): generous, so that the prior does not
 #: bias the smoothed start and early good rows pass the gate.
 PRIOR_SIGMA = (100.0, 50.0, 30.0)
+
+
+class NoPositionFix(DataError):
+    """No row of the batch fixes a position, so the track cannot start by itself."""
+
+
+@dataclass(frozen=True, slots=True)
+class Prior:
+    """A given state of the target: time ``t`` (s), state ``x`` (9,) and covariance ``P``
+    (9, 9) in the range ENU frame (m, m/s, m/s^2)."""
+
+    t: float
+    x: np.ndarray
+    P: np.ndarray
+
+
+def given_prior(t: float, position: np.ndarray, velocity: np.ndarray, sigma_position: float,
+                sigma_velocity: float) -> Prior:
+    """A :class:`Prior` from a stated position (3,) m and velocity (3,) m/s in range ENU with
+    1-sigma per axis; the acceleration is unknown (``PRIOR_SIGMA``'s acceleration sigma)."""
+    x = np.zeros(N_KINEMATIC)
+    x[0:3], x[3:6] = position, velocity
+    P = np.diag([sigma_position ** 2] * 3 + [sigma_velocity ** 2] * 3
+                + [PRIOR_SIGMA[2] ** 2] * 3)
+    return Prior(float(t), x, P)
+
+
+def prior_at(prior: Prior, t0: float) -> tuple[np.ndarray, np.ndarray]:
+    """The prior moved to time ``t0`` (s) by the constant-acceleration model (forward or
+    backward: ``x(t0) = F(t0 - t) x``, ``P = F P F^T``; the acceleration sigma already covers
+    the manoeuvre between the two times)."""
+    dt = float(t0 - prior.t)
+    x = prior.x.copy()
+    P = prior.P.copy()
+    F1 = np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+    F = np.kron(F1, np.eye(3))
+    x = F @ x
+    P = F @ P @ F.T
+    return x, 0.5 * (P + P.T)
 
 
 def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -51,9 +93,10 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     """
     rows, pos, acc = position_fixes(batch)
     if len(rows) < 2:
-        names = ", ".join(batch.sensor_ids)
-        raise DataError(f"cannot initialise the track: no position fixes from sensors ({names});"
-                        " need GPS or radar/theodolite rows with range, azimuth and elevation")
+        present = sorted({batch.sensor_ids[i] for i in np.unique(batch.sensor)})
+        raise NoPositionFix(f"cannot initialise the track: no position fixes from sensors "
+                            f"({', '.join(present)}); need GPS or radar/theodolite rows with "
+                            "range, azimuth and elevation, or a given initial state")
     t = batch.t[rows]
     take = t <= t[0] + window
     if take.sum() < n_min:
