@@ -153,6 +153,7 @@ def kernel_bench(a: argparse.Namespace) -> dict:
     m = len(ds.t)
     cold = cold_first_call(a.kernel_steps)
     ukf = ukf_bench(a, d, ds, rp)
+    adaptive = filter_rows(a, d, rp_s / n * 1e6)
     us = {"rangeproc": rp_s / n * 1e6, "filterpy": fp_s / n * 1e6,
           "stonesoup": ss_s / m * 1e6, "stonesoup_stock": ss_stock_s / m * 1e6}
     return {
@@ -170,7 +171,23 @@ def kernel_bench(a: argparse.Namespace) -> dict:
                       "stonesoup": peers.agreement(rp_head, ss),
                       "stonesoup_stock": peers.agreement(rp_head, ss_stock)},
         "ukf": ukf,
+        "filters": adaptive,
     }
+
+
+def filter_rows(a: argparse.Namespace, d: peers.RadarData, ekf_us: float) -> dict:
+    """One row per further selectable filter on the same radar rows (filter + RTS smoother,
+    µs per measurement, and the ratio to the EKF row): no peer library offers these."""
+    from rangeproc.config import ProcessingSettings
+    from rangeproc.estimation.forward import EKF
+    window = ProcessingSettings().sage_husa_window
+    rows = {}
+    for name, method, adapt in (("sage-husa", EKF, window),):
+        first_s, s, times, _ = time_rangeproc(peers.rangeproc_inputs(d, method, adapt), a.reps)
+        us = s / len(d.t) * 1e6
+        rows[name] = {"us_per_meas": us, "ratio_to_ekf": us / ekf_us, "first_call_s": first_s,
+                      "times_s": times}
+    return rows
 
 
 def ukf_bench(a: argparse.Namespace, d: peers.RadarData, ds: peers.RadarData,
@@ -446,6 +463,12 @@ def print_kernel(k: dict) -> None:
           f" calls: {us['rangeproc']:.2f} us/meas")
     if "ukf" in k:
         print_ukf(k["ukf"])
+    if "filters" in k:
+        print("\nKernel, one row per further filter (same rows, filter + RTS smoother; no peer "
+              "library offers these):")
+        for name, f in k["filters"].items():
+            print(f"  {name:<12} {f['us_per_meas']:6.2f} us/meas  {f['ratio_to_ekf']:.2f}x the "
+                  "EKF row")
 
 
 def print_ukf(u: dict) -> None:
@@ -534,6 +557,9 @@ def print_acceptance(res: dict) -> None:
               f"Stone Soup)")
         print(f"  UKF agreement with FilterPy <= {TARGET_AGREE:g} (relative position; not an "
               f"issue figure): {uworst:.1e}  {_ok(uworst <= TARGET_AGREE)}")
+    if k and "filters" in k and "sage-husa" in k["filters"]:
+        r = k["filters"]["sage-husa"]["ratio_to_ekf"]
+        print(f"  sage-husa <= 2x the EKF row: {r:.2f}x  {_ok(r <= 2.0)}")
     if p:
         full = p["duration_s"] >= 3600.0
         tag = (lambda f: _ok(f)) if full else (lambda f: "n/a (not the one-hour sortie)")

@@ -98,10 +98,10 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # rangeproc. ADAPT HERE when the kernel signatures change: rangeproc_inputs builds the arrays
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
-def rangeproc_inputs(d: RadarData, method: int = 0) -> tuple:
+def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0) -> tuple:
     """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
     ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
-    sigma points :data:`UKF_PARAMS`."""
+    sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise."""
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -112,7 +112,8 @@ def rangeproc_inputs(d: RadarData, method: int = 0) -> tuple:
     return (d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64), z, sigma,
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
-            np.empty((0, 9)), int(method), UKF_PARAMS.copy())
+            np.empty((0, 9)), int(method), UKF_PARAMS.copy(), int(adapt_window),
+            adapt_window > 0)
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

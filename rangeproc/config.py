@@ -111,7 +111,10 @@ class ProcessingSettings:
     adapt_noise: estimate per-sensor noise (and local bursts) from the data.
     process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
         estimate it from the data (maximum likelihood, then local EM).
-    filter: measurement update, "ekf" (linearised, Joseph form) or "ukf" (unscented).
+    filter: "ekf" (linearised, Joseph form), "ukf" (unscented) or "sage-husa" (the EKF with
+        improved Sage-Husa adaptive measurement noise, seed 002).
+    sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
+    sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
     max_gap: a target unobserved for longer than this (s) is split into separate spans with no
         output epochs in between; also the distance that makes a sensor's time stamps isolated.
     time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
@@ -130,6 +133,8 @@ class ProcessingSettings:
     time_margin: float = 60.0
     max_speed: float = 2.0e4
     max_range: float = 5.0e7
+    sage_husa_window: int = 100
+    sage_husa_mean: bool = False
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -178,7 +183,8 @@ INITIAL_SIGMA_VELOCITY = 50.0
 #: |initial velocity| components (m/s)
 MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
-                    "filter", "max_gap", "time_margin", "max_speed", "max_range")
+                    "filter", "max_gap", "time_margin", "max_speed", "max_range",
+                    "sage_husa_window", "sage_husa_mean")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -204,7 +210,7 @@ MAX_LEVER_ARM = 1.0e4
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, 3.0e8),
     "max_range": (1.0, 1.0e12)})
-FILTERS = ("ekf", "ukf")
+FILTERS = ("ekf", "ukf", "sage-husa")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -452,6 +458,14 @@ class _Validator:
             q = self.positive(t["process_noise"], "processing.process_noise")
             kw["process_noise"] = self.bounded(q, "processing.process_noise",
                                                *PROCESS_NOISE_BOUNDS, "m^2/s^5")
+        if "sage_husa_window" in t:
+            w = t["sage_husa_window"]
+            if not isinstance(w, int) or isinstance(w, bool) or not 2 <= w <= 100_000:
+                raise self.error("processing.sage_husa_window",
+                                 f"expected an integer in [2, 100000], got {_show(w)}")
+            kw["sage_husa_window"] = w
+        if "sage_husa_mean" in t:
+            kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():
             if name in t:
                 kw[name] = self.bounded(t[name], f"processing.{name}", lo, hi)

@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation.adaptive import sh_adapt, sh_record, sh_reset
 from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack
 from rangeproc.models.measurement import (
@@ -166,7 +167,7 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
                  Hs: np.ndarray, sel: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
                  gate: np.ndarray, joseph: bool, yw: np.ndarray, HP: np.ndarray,
                  S: np.ndarray, Kt: np.ndarray, AP: np.ndarray, APHt: np.ndarray,
-                 sdiag: np.ndarray):
+                 sdiag: np.ndarray, want_stats: bool, ew: np.ndarray, Sinv: np.ndarray):
     """Gate the components at positions ``sel[:m]`` of the moments and, if they pass, update
     ``x``, ``P`` in place.
 
@@ -175,7 +176,9 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
     form ``(I - K H) P (I - K H)^T + K K^T`` (eq. 9, needs the Jacobian rows ``Hs``) when
     ``joseph``, else ``P - K S K^T = P - K HP`` (unscented update). Returns
     ``(nis, passed, logdet_S)``; ``sdiag[:m]`` receives the marginal whitened innovation
-    variances (for per-component tests).
+    variances (for per-component tests). With ``want_stats`` and a passed gate, ``ew[:m]``
+    receives ``S^-1 yw`` (the whitened post-update residual) and ``Sinv[:m, :m]`` ``S^-1``
+    (Sage-Husa, ``estimation.adaptive``).
     """
     n = x.shape[0]
     for a in range(m):
@@ -204,6 +207,12 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
         nis += yw[a] * Kt[a, 0]
     if nis > gate[m]:
         return nis, False, logdet
+    if want_stats:
+        for a in range(m):
+            ew[a] = Kt[a, 0]
+            for b in range(m):
+                Sinv[a, b] = 1.0 if a == b else 0.0
+        chol_solve_inplace(S, m, Sinv, m)
     for a in range(m):                                   # K^T = S^-1 (H P): gain, eq. 8
         for j in range(n):
             Kt[a, j] = HP[a, j]
@@ -254,7 +263,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                    z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
                    Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                    q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
-                   reset_inflation: float, x_lin: np.ndarray, method: int, ukf: np.ndarray):
+                   reset_inflation: float, x_lin: np.ndarray, method: int, ukf: np.ndarray,
+                   adapt_window: int, adapt_mean: bool):
     """Run the Kalman filter (EKF or UKF measurement update) over all epochs.
 
     Args:
@@ -280,6 +290,10 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         ukf: (3,) ``[alpha, beta, kappa]`` of the UKF sigma points (seed 001: kappa = 3 - n);
             ignored by the EKF. (Both are explicit arguments, never defaults: numba's cache
             keys an omitted array default on the object, so it would recompile every process.)
+        adapt_window: > 0: improved Sage-Husa adaptive measurement noise over windows of this
+            many accepted rows per sensor component (``estimation.adaptive``); 0: off, the
+            stated sigmas are used as they are. adapt_mean: also remove the windowed noise
+            mean from the innovations.
 
     The motion model is linear (constant acceleration), so the prediction is exact for both
     methods and the UKF differs from the EKF only in the measurement update.
@@ -289,7 +303,9 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         nis (N,) row innovation chi-square, dof (N,) int64 measured components,
         rejected (N,) int64 bit mask of the components the gate rejected (bit c = component
         c), loglik (Gaussian log-likelihood of the whitened innovations, rejected rows counted
-        at the gate), n_resets (int), ll_rows (N,) each row's contribution to loglik.
+        at the gate), n_resets (int), ll_rows (N,) each row's contribution to loglik,
+        sigma_used (N, 6) the sigmas the update used (adapted; ``(0, 6)`` when adaptation is
+        off, the input sigmas then).
     """
     E = epoch_t.shape[0]
     N = meas_epoch.shape[0]
@@ -323,6 +339,17 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     Zs = np.empty((2 * n + 1, N_COMPONENTS))
     xsig = np.empty(n)
     use_lin = x_lin.shape[0] == E and method == EKF
+    adapt = adapt_window > 0
+    G = (np.max(sensor) + 1 if N > 0 else 1) * N_COMPONENTS if adapt else 1
+    sh_buf = np.zeros((G, max(adapt_window, 1), 2))
+    sh_count = np.zeros(G, dtype=np.int64)
+    sh_pos = np.zeros(G, dtype=np.int64)
+    sh_acc = np.zeros((G, 2))
+    sigma_used = np.full((N if adapt else 0, N_COMPONENTS), np.nan)
+    ew = np.empty(N_COMPONENTS)
+    Sinv = np.empty((N_COMPONENTS, N_COMPONENTS))
+    sig_row = np.empty(N_COMPONENTS)
+    y_raw = np.empty(N_COMPONENTS)
     joseph = method == EKF
     loglik = 0.0
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
@@ -354,9 +381,18 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 raise FloatingPointError("covariance not positive definite in UKF")
             for a in range(m):
                 sel[a] = a
-                sig[a] = sigma[i, idx[a]]
+                sig_row[a] = sigma[i, idx[a]]
+                y_raw[a] = y[a]
+            if adapt:
+                sh_adapt(sensor[i], idx, m, sig_row, y, sh_count, sh_acc, adapt_window,
+                         adapt_mean)
+                for a in range(m):
+                    sigma_used[i, idx[a]] = sig_row[a]
+            for a in range(m):
+                sig[a] = sig_row[a]
             val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, x, P, gate, joseph,
-                                           yw, HP, S, Kt, AP, APHt, sdiag)
+                                           yw, HP, S, Kt, AP, APHt, sdiag, adapt, ew, Sinv)
+            n_acc = m if ok else 0
             nis[i] = val
             mask = 0
             if not ok and m > 1 and math.isfinite(val):
@@ -365,20 +401,29 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 for a in range(m):
                     if yw[a] * yw[a] / sdiag[a] <= gate[1]:
                         sel[mk] = a
-                        sig[mk] = sigma[i, idx[a]]
+                        sig[mk] = sig_row[a]
                         mk += 1
                     else:
                         mask |= 1 << idx[a]
                 if 0 < mk < m:
                     val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, x, P, gate,
-                                                      joseph, yw, HP, S, Kt, AP, APHt, sdiag)
+                                                      joseph, yw, HP, S, Kt, AP, APHt, sdiag,
+                                                      adapt, ew, Sinv)
                     if ok2:
                         ok = True
+                        n_acc = mk
                         loglik -= 0.5 * (val2 + logdet2 + mk * LOG_2PI + (m - mk) * gate[1])
                 if not ok:
                     mask = 0
             if ok and mask == 0:
                 loglik -= 0.5 * (val + logdet + m * LOG_2PI)
+            if adapt and ok:                             # Sage-Husa window, accepted only
+                for b in range(n_acc):
+                    a = sel[b]
+                    scale = sig_row[a] / sigma[i, idx[a]]
+                    ratio = (ew[b] * ew[b] + 1.0 - Sinv[b, b]) * scale * scale
+                    sh_record(sensor[i] * N_COMPONENTS + idx[a], ratio, y_raw[a], sh_buf,
+                              sh_count, sh_pos, sh_acc, adapt_window)
             if ok:
                 consecutive[sensor[i]] = 0
                 rejected[i] = mask
@@ -398,6 +443,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     consecutive[:] = 0
                     n_resets += 1
                     last_reset = k
+                    if adapt:                            # divergence: back to a-priori noise
+                        sh_reset(sh_count, sh_pos, sh_acc)
             ll_rows[i] = loglik - ll_before
             i += 1
         for a in range(n):
@@ -405,4 +452,4 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 raise FloatingPointError("non-finite state in the Kalman filter")
         xf[k] = x
         pack(P, Pf[k])
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows
+    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used

@@ -57,6 +57,9 @@ class EstimatorSettings:
     method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
         ``(alpha, beta, kappa)``, kappa = 3 - n per seed 001.
     max_gap: longest time (s) without any row inside one span (module docstring, stage 0).
+    adapt_window: > 0: improved Sage-Husa adaptive measurement noise in the filter over windows
+        of this many rows (``estimation.adaptive``; ``filter = "sage-husa"``); adapt_mean: also
+        estimate and remove the noise mean.
     """
 
     gate_probability: float = 0.9999
@@ -70,6 +73,8 @@ class EstimatorSettings:
     method: int = EKF
     ukf: tuple[float, float, float] = (1.0, 2.0, 3.0 - 9)
     max_gap: float = 60.0
+    adapt_window: int = 0
+    adapt_mean: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,16 +141,18 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, rej, _, resets, _ = kalman_forward(
+        xf, Pf, nis, dof, rej, _, resets, _, sigma_used = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
-            st.method, np.asarray(st.ukf, dtype=np.float64))
+            st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean)
         xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True)   # in place over xf, Pf
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
-    return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets
+    if sigma_used.shape[0]:                  # adapted in the filter: report what it used
+        batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
+    return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets, batch
 
 
 def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
@@ -271,7 +278,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     tick(1, "pass 1")
     noise: dict[tuple[int, int], float] = {}
     for p in range(settings.noise_passes):
-        xs, Ps, em, nis, dof, used, res, hph, _ = out
+        xs, Ps, em, nis, dof, used, res, hph, _, _ = out
         x_lin = xs
         if settings.adapt_noise:
             sigma, noise = residual_sigma(batch, res, hph, used)
@@ -281,7 +288,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
         out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
         tick(1, f"pass {p + 2}")
-    xs, Ps, em, nis, dof, used, res, hph, resets = out
+    xs, Ps, em, nis, dof, used, res, hph, resets, batch = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,
                         hph=hph, q=q, noise=noise, n_resets=resets)

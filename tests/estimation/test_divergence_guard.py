@@ -30,10 +30,10 @@ def test_thousands_of_rejected_rows_at_one_epoch_reset_once_and_smooth() -> None
     P0 = np.diag([100.0] * 3 + [25.0] * 3 + [1.0] * 3)
     gate = np.full(7, np.inf)
     gate[1:] = [15.1, 18.4, 21.1, 23.5, 25.7, 27.9]
-    xf, Pf, nis, dof, rej, ll, n_resets, _ = kalman_forward(
+    xf, Pf, nis, dof, rej, ll, n_resets, *_ = kalman_forward(
         epoch_t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
         np.zeros(t.size, np.int64), x0, P0, np.full(epoch_t.size, 1.0), gate, 50, 100.0,
-        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]))
+        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0, False)
     assert n_resets == 1
     assert np.isfinite(Pf).all() and np.isfinite(xf).all()
     assert Pf.max() < MAX_RESET_INFLATION * 1e3

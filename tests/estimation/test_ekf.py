@@ -39,7 +39,7 @@ def _run(t, z, sigma, x0, P0, q, gate, site=np.zeros(3), Qr=np.eye(3), reset_aft
     return kalman_forward(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s,
                        np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0,
                        np.full(n, float(q)), gate, reset_after, 100.0, np.empty((0, 9)), 0,
-                          np.array([1.0, 2.0, -6.0]))
+                          np.array([1.0, 2.0, -6.0]), 0, False)
 
 
 def test_ekf_matches_filterpy_extended_kalman_filter():
@@ -92,7 +92,7 @@ def test_gate_rejects_wild_points_and_carries_prediction():
     z[wild, 0] += rng.choice([-1, 1], 40) * rng.uniform(200, 500, 40)
     t = np.arange(len(truth)) * dt
     P0 = np.diag([100.0] * 3 + [400.0] * 3 + [25.0] * 3)
-    xf, Pf, nis, dof, rej, ll, resets, _ = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
+    xf, Pf, nis, dof, rej, ll, resets, *_ = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
                                               reset_after=50)
     # the wild range is rejected, the row's good angles are still used (component gating)
     assert ((rej[wild] & 1) == 1).all()
@@ -121,7 +121,7 @@ def test_100k_step_radar_only_run_stays_consistent():
     sigma[:, :3] = sig
     t = np.arange(n) * dt
     P0 = np.diag([100.0] * 3 + [100.0] * 3 + [1.0] * 3)
-    xf, Pf, nis, dof, acc, ll, resets, _ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+    xf, Pf, nis, dof, acc, ll, resets, *_ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
     assert np.isfinite(xf).all()
     # filtered NEES (position) over the second half: mean within the chi-square band
     P = np.empty((9, 9))

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rangeproc.config import load_config
+from rangeproc.config import FILTERS, load_config
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.evaluate import evaluate_run
 from rangeproc.frames.geodesy import RangeFrame
@@ -92,3 +92,28 @@ def test_degrades_gracefully_without_mistram_and_theodolite(scenario):
     assert m["vel_rmse"] < 2.0
     assert min(m["inside_3sigma_enu"]) > 0.9
     assert set(out.summary["sensors"]) == {"R1", "S1", "SHIP_INS", "G1"}
+
+
+def _with_filter(config: Path, name: str) -> Path:
+    dst = config.with_name(f"filter_{name}.toml")
+    dst.write_text(config.read_text().replace('dir = "s1_0_out"', f'dir = "{dst.stem}_out"')
+                   + f'\n[processing]\nfilter = "{name}"\n')
+    return dst
+
+
+@pytest.fixture(scope="module")
+def ekf_metrics(scenario):
+    base = _with_sigmas(scenario / "scenario.toml", 1.0, scenario / "s1_0.toml")
+    out = run(_with_filter(base, "ekf"))
+    return evaluate_run(out.out_dir, scenario / "truth.csv")["targets"]["T1"]
+
+
+@pytest.mark.parametrize("name", [f for f in FILTERS if f != "ekf"])
+def test_every_filter_on_the_faulty_scenario(scenario, ekf_metrics, name):
+    """Each selectable filter on the whole pipeline (wild points, dropouts, a burst): position
+    RMSE within 1.3x of the EKF default, at least 95 % of epochs inside 3 sigma."""
+    base = _with_sigmas(scenario / "scenario.toml", 1.0, scenario / "s1_0.toml")
+    out = run(_with_filter(base, name))
+    m = evaluate_run(out.out_dir, scenario / "truth.csv")["targets"]["T1"]
+    assert m["pos_rmse"] <= 1.3 * ekf_metrics["pos_rmse"], (m["pos_rmse"], ekf_metrics)
+    assert min(m["inside_3sigma_enu"]) >= 0.95, m["inside_3sigma_enu"]
