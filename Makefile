@@ -51,5 +51,8 @@ lint: $(STAMP)
 	$(BIN)/python -m pip install --quiet ruff
 	$(BIN)/ruff check rangeproc tests
 
+## clean: outputs, and numba's compiled-kernel caches (numba does not notice a change to an
+## inline helper in another module, e.g. estimation/kernels.py: clean after editing one).
 clean:
 	rm -rf out bench/results.json .pytest_cache
+	find rangeproc -name '*.nbi' -delete -o -name '*.nbc' -delete
