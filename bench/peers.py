@@ -98,10 +98,12 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # rangeproc. ADAPT HERE when the kernel signatures change: rangeproc_inputs builds the arrays
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
-def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0) -> tuple:
+def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
+                     maneuver_norm: float = 0.0) -> tuple:
     """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
     ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
-    sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise."""
+    sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise;
+    ``maneuver_norm`` > 0: seed 004's norm constraint at every epoch (m/s^2)."""
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -113,7 +115,7 @@ def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0) -> tu
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
             np.empty((0, 9)), int(method), UKF_PARAMS.copy(), int(adapt_window),
-            adapt_window > 0)
+            adapt_window > 0, float(maneuver_norm))
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

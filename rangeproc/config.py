@@ -111,10 +111,13 @@ class ProcessingSettings:
     adapt_noise: estimate per-sensor noise (and local bursts) from the data.
     process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
         estimate it from the data (maximum likelihood, then local EM).
-    filter: "ekf" (linearised, Joseph form), "ukf" (unscented) or "sage-husa" (the EKF with
-        improved Sage-Husa adaptive measurement noise, seed 002).
+    filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "sage-husa" (the EKF with
+        improved Sage-Husa adaptive measurement noise, seed 002) or "askf" (augmented-state
+        filter with the maneuver-norm constraint, seed 004).
     sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
     sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
+    maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
+        (seed 004); None = estimate it.
     max_gap: a target unobserved for longer than this (s) is split into separate spans with no
         output epochs in between; also the distance that makes a sensor's time stamps isolated.
     time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
@@ -135,6 +138,7 @@ class ProcessingSettings:
     max_range: float = 5.0e7
     sage_husa_window: int = 100
     sage_husa_mean: bool = False
+    maneuver_norm: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -184,7 +188,7 @@ INITIAL_SIGMA_VELOCITY = 50.0
 MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
-                    "sage_husa_window", "sage_husa_mean")
+                    "sage_husa_window", "sage_husa_mean", "maneuver_norm")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -210,7 +214,7 @@ MAX_LEVER_ARM = 1.0e4
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, 3.0e8),
     "max_range": (1.0, 1.0e12)})
-FILTERS = ("ekf", "ukf", "sage-husa")
+FILTERS = ("ekf", "ukf", "sage-husa", "askf")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -464,6 +468,10 @@ class _Validator:
                 raise self.error("processing.sage_husa_window",
                                  f"expected an integer in [2, 100000], got {_show(w)}")
             kw["sage_husa_window"] = w
+        if "maneuver_norm" in t:
+            mn = self.positive(t["maneuver_norm"], "processing.maneuver_norm")
+            kw["maneuver_norm"] = self.bounded(mn, "processing.maneuver_norm", 1e-6, 1e5,
+                                               "m/s^2")
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():

@@ -62,7 +62,8 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              adapt_noise=p.adapt_noise, process_noise=p.process_noise,
                              method=UKF if p.filter == "ukf" else EKF, max_gap=p.max_gap,
                              adapt_window=p.sage_husa_window if p.filter == "sage-husa" else 0,
-                             adapt_mean=p.sage_husa_mean)
+                             adapt_mean=p.sage_husa_mean, askf=p.filter == "askf",
+                             maneuver_norm=p.maneuver_norm)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
@@ -240,6 +241,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                                 "p95": float(np.percentile(result.q, 95)),
                                 "max": float(np.max(result.q))},
             "divergence_resets": result.n_resets,
+            "maneuver_norm": {"unit": "m/s^2", "imposed": result.maneuver_norm},
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
     if not tracks:

@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from rangeproc.estimation.adaptive import sh_adapt, sh_record, sh_reset
+from rangeproc.estimation.constraint import norm_update
 from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack
 from rangeproc.models.measurement import (
@@ -264,7 +265,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                    Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                    q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
                    reset_inflation: float, x_lin: np.ndarray, method: int, ukf: np.ndarray,
-                   adapt_window: int, adapt_mean: bool):
+                   adapt_window: int, adapt_mean: bool, maneuver_norm: float):
     """Run the Kalman filter (EKF or UKF measurement update) over all epochs.
 
     Args:
@@ -294,6 +295,9 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             many accepted rows per sensor component (``estimation.adaptive``); 0: off, the
             stated sigmas are used as they are. adapt_mean: also remove the windowed noise
             mean from the innovations.
+        maneuver_norm: > 0: seed 004's constant-norm maneuver, ``||d|| = maneuver_norm``
+            (m/s^2) on the acceleration block as a pseudo-measurement at every epoch after
+            its rows (``estimation.constraint``), linearised at ``x_lin`` when given; 0: off.
 
     The motion model is linear (constant acceleration), so the prediction is exact for both
     methods and the UKF differs from the EKF only in the measurement update.
@@ -349,6 +353,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     ew = np.empty(N_COMPONENTS)
     Sinv = np.empty((N_COMPONENTS, N_COMPONENTS))
     sig_row = np.empty(N_COMPONENTS)
+    Pu = np.empty(n)
     y_raw = np.empty(N_COMPONENTS)
     joseph = method == EKF
     loglik = 0.0
@@ -447,6 +452,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                         sh_reset(sh_count, sh_pos, sh_acc)
             ll_rows[i] = loglik - ll_before
             i += 1
+        if maneuver_norm > 0.0:
+            norm_update(x, P, x_lin[k] if x_lin.shape[0] == E else x, maneuver_norm, Pu)
         for a in range(n):
             if not math.isfinite(x[a]):
                 raise FloatingPointError("non-finite state in the Kalman filter")

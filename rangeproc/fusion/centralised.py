@@ -32,6 +32,7 @@ from scipy.stats import chi2
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import DataError, NumericalError
 from rangeproc.estimation.forward import EKF, kalman_forward
+from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
@@ -60,6 +61,12 @@ class EstimatorSettings:
     adapt_window: > 0: improved Sage-Husa adaptive measurement noise in the filter over windows
         of this many rows (``estimation.adaptive``; ``filter = "sage-husa"``); adapt_mean: also
         estimate and remove the noise mean.
+    askf: seed 004's augmented-state filter with the maneuver-norm constraint on the
+        acceleration block, imposed in the refinement passes (linearised at the previous
+        smoothed track; the first pass is unconstrained, ``noise_passes = 0`` leaves it so):
+        ``maneuver_norm`` (m/s^2) when given, else estimated from the first pass's smoothed
+        accelerations (``estimation.constraint.estimate_norm``); without a usable norm the
+        unconstrained ASKF (the constant-acceleration EKF).
     """
 
     gate_probability: float = 0.9999
@@ -75,6 +82,8 @@ class EstimatorSettings:
     max_gap: float = 60.0
     adapt_window: int = 0
     adapt_mean: bool = False
+    askf: bool = False
+    maneuver_norm: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,7 +98,8 @@ class FusionResult:
     epoch (m^2/s^5); noise: global sigma estimate per
     (sensor index, component); n_resets: divergence-guard resets in the final pass;
     spans: ((t_first, t_last), ...) s of the estimated spans; n_unstarted: rows per sensor
-    index of spans that could not be started (no position fix) and are not in ``batch``.
+    index of spans that could not be started (no position fix) and are not in ``batch``;
+    maneuver_norm: the norm (m/s^2) the constrained ASKF imposed, None when unconstrained.
     """
 
     epoch_t: np.ndarray
@@ -108,6 +118,7 @@ class FusionResult:
     n_resets: int
     spans: tuple[tuple[float, float], ...] = ()
     n_unstarted: dict[int, int] = field(default_factory=dict)
+    maneuver_norm: float | None = None
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -138,13 +149,15 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
     return np.isfinite(z) & (bits == 0)
 
 
-def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
+def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
+         maneuver_norm: float = 0.0):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
         xf, Pf, nis, dof, rej, _, resets, _, sigma_used = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
-            st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean)
+            st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean,
+            maneuver_norm)
         xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True)   # in place over xf, Pf
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
@@ -239,7 +252,7 @@ def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResul
         used=cat("used"), nis=cat("nis"), dof=cat("dof"), res=cat("res"), hph=cat("hph"),
         q=cat("q"), noise=noise, n_resets=sum(p.n_resets for p in parts),
         spans=tuple((float(p.batch.t[0]), float(p.batch.t[-1])) for p in parts),
-        n_unstarted=unstarted)
+        n_unstarted=unstarted, maneuver_norm=parts[0].maneuver_norm)
 
 
 def fuse_span(batch: MeasurementBatch, rate_hz: float,
@@ -274,7 +287,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
                  float(np.median(q)))
     x_lin = np.empty((0, x0.shape[0]))
+    # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
+    # which the data give): the refinement passes impose it, linearised at its smoothed track
+    rho = settings.maneuver_norm if settings.askf else None
     out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
+    if settings.askf and rho is None:
+        rho = estimate_norm(out[0][grid][:, 6:9])
+        log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
+                 else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
     noise: dict[tuple[int, int], float] = {}
     for p in range(settings.noise_passes):
@@ -286,9 +306,9 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         if settings.process_noise is None:
             q = local_process_noise(epoch_t, em, window=settings.q_window)
         log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
-        out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
+        out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin, rho or 0.0)
         tick(1, f"pass {p + 2}")
     xs, Ps, em, nis, dof, used, res, hph, resets, batch = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,
-                        hph=hph, q=q, noise=noise, n_resets=resets)
+                        hph=hph, q=q, noise=noise, n_resets=resets, maneuver_norm=rho)
