@@ -280,7 +280,11 @@ def config_ops(layout: BaseLayout) -> st.SearchStrategy[Op]:
         ("process_noise", 1e-300), ("process_noise", 0.0), ("gate_probability", 1e-300),
         ("gate_probability", 1.0 - 1e-16), ("gate_probability", 0.5), ("gate_probability", 1.0),
         ("filter", "bogus"), ("filter", "ukf"), ("filter", "EKF"), ("adapt_noise", False),
-        ("adapt_noise", "no"), ("bogus_key", 1)))
+        ("adapt_noise", "no"), ("bogus_key", 1),
+        ("filter", "sage-husa"), ("filter", "askf"), ("maneuver_norm", 8.0),
+        ("maneuver_norm", 1e-300), ("maneuver_norm", 1e300), ("sage_husa_window", 2),
+        ("sage_husa_window", 10**9), ("sage_husa_mean", True), ("max_gap", 0.5),
+        ("max_gap", 1e-9), ("time_margin", 0.0), ("max_speed", 1.0), ("max_range", 1.0)))
     return st.one_of(
         st.builds(ConfigDelete, st.sampled_from(keys)),
         st.builds(ConfigSet, st.sampled_from(numeric), any_value),
