@@ -12,7 +12,6 @@ import math
 import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -24,156 +23,22 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
-ANGLE_UNITS = ("deg", "rad", "mil")
+from rangeproc.settings import (  # re-exported: the config's public types
+    ANGLE_COMPONENTS as ANGLE_COMPONENTS,
+    ANGLE_TO_RADIANS as ANGLE_TO_RADIANS,
+    ANGLE_UNITS as ANGLE_UNITS,
+    Config as Config,
+    DEFAULT_SIGMAS as DEFAULT_SIGMAS,
+    Geodetic as Geodetic,
+    InitialState as InitialState,
+    OutputSettings as OutputSettings,
+    ProcessingSettings as ProcessingSettings,
+    SENSOR_KINDS as SENSOR_KINDS,
+    SensorSettings as SensorSettings,
+    StationSettings as StationSettings,
+    TargetSettings as TargetSettings,
+)
 
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class Geodetic:
-    """A WGS-84 point: ``lat``, ``lon`` in degrees (east positive), ``height`` in metres."""
-
-    lat: float
-    lon: float
-    height: float
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class OutputSettings:
-    """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz)."""
-
-    dir: Path
-    rate_hz: float = 10.0
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class InitialState:
-    """A target's known state (``[[targets]] initial``), for data that cannot start a track
-    by itself (e.g. MISTRAM range rates alone).
-
-    time: s on the range time scale; position: WGS-84 ``lat``, ``lon`` (deg), ``height`` (m);
-    velocity ``ve, vn, vu`` (m/s) in the range ENU frame; ``sigma_position`` (m) and
-    ``sigma_velocity`` (m/s): 1-sigma per axis.
-    """
-
-    time: float
-    position: Geodetic
-    velocity: tuple[float, float, float]
-    sigma_position: float
-    sigma_velocity: float
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class TargetSettings:
-    """``[[targets]]`` entry: ``id`` and the optional ``initial`` state."""
-
-    id: str
-    initial: InitialState | None = None
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class StationSettings:
-    """A MISTRAM ground station (fixed)."""
-
-    id: str
-    site: Geodetic
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class SensorSettings:
-    """``[[sensors]]`` entry, validated and in SI units.
-
-    ``sigma`` maps component name -> a-priori 1-sigma in SI (m, rad, m/s); components the user
-    did not state carry rangeproc's defaults (see ``DEFAULT_SIGMAS``). ``file`` is absolute.
-    ``lever_arm`` is body FRD in metres (platform sensors only; zeros otherwise).
-    """
-
-    id: str
-    kind: str
-    file: Path
-    site: Geodetic | None = None
-    platform: str | None = None
-    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    angle_unit: str = "deg"
-    time_offset: float = 0.0
-    sigma: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
-    target: str | None = None
-    stations: tuple[StationSettings, ...] = ()
-    allow_disjoint_time: bool = False
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class ProcessingSettings:
-    """Optional ``[processing]`` section (rangeproc's own; every field has a working default).
-
-    gate_probability: chi-square gate probability for innovation gating (per measurement row).
-    noise_passes: refinement passes after the first (re-linearisation at the smoothed track,
-        noise and process-noise re-estimation).
-    adapt_noise: estimate per-sensor noise (and local bursts) from the data.
-    process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
-        estimate it from the data (maximum likelihood, then local EM).
-    filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "sage-husa" (the EKF with
-        improved Sage-Husa adaptive measurement noise, seed 002) or "askf" (augmented-state
-        filter with the maneuver-norm constraint, seed 004).
-    sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
-    sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
-    maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
-        (seed 004); None = estimate it.
-    max_gap: a target unobserved for longer than this (s) is split into separate spans with no
-        output epochs in between; also the distance that makes a sensor's time stamps isolated.
-    time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
-        rows is refused (wrong time scale or time_offset), unless ``allow_disjoint_time``.
-    max_speed: physical speed limit (m/s) of targets and platforms (range rates, velocities,
-        jumps between consecutive fixes).
-    max_range: physical range limit (m) of radars and laser rangers; also the highest height.
-    """
-
-    gate_probability: float = 0.9999
-    noise_passes: int = 2
-    adapt_noise: bool = True
-    process_noise: float | None = None
-    filter: str = "ekf"
-    max_gap: float = 60.0
-    time_margin: float = 60.0
-    max_speed: float = 2.0e4
-    max_range: float = 5.0e7
-    sage_husa_window: int = 100
-    sage_husa_mean: bool = False
-    maneuver_norm: float | None = None
-
-
-@dataclass(frozen=True, kw_only=True, slots=True)
-class Config:
-    """The whole validated config. ``path`` is the config file (absolute)."""
-
-    path: Path
-    origin: Geodetic
-    output: OutputSettings
-    targets: tuple[TargetSettings, ...]
-    sensors: tuple[SensorSettings, ...]
-    processing: ProcessingSettings = ProcessingSettings()
-
-
-# --------------------------------------------------------------------------------------------
-# Defaults and unit tables (read-only mappings: no module-level mutable state).
-# --------------------------------------------------------------------------------------------
-
-#: a-priori 1-sigma per sensor kind and component, SI (m, rad, m/s); contract key order.
-DEFAULT_SIGMAS: Mapping[str, Mapping[str, float]] = MappingProxyType({
-    "radar": MappingProxyType(
-        {"range": 10.0, "azimuth": 1e-3, "elevation": 1e-3, "range_rate": 0.5}),
-    "theodolite": MappingProxyType({"azimuth": 1e-4, "elevation": 1e-4, "range": 5.0}),
-    "gps": MappingProxyType({"horizontal": 3.0, "vertical": 5.0, "velocity": 0.2}),
-    "mistram": MappingProxyType({"range_rate": 0.1}),
-    "ins": MappingProxyType(
-        {"roll": 1e-4, "pitch": 1e-4, "yaw": 1e-4, "position": 1.0, "velocity": 0.1}),
-})
-
-#: radians per one unit of each ``angle_unit`` (6400 mil per circle).
-ANGLE_TO_RADIANS: Mapping[str, float] = MappingProxyType(
-    {"deg": math.pi / 180.0, "rad": 1.0, "mil": 2.0 * math.pi / 6400.0})
-
-#: components (sigma keys and data columns) that are angles, in ``angle_unit`` at I/O.
-ANGLE_COMPONENTS = frozenset({"azimuth", "elevation", "roll", "pitch", "yaw"})
 
 _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
 _SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
