@@ -49,7 +49,7 @@ _INITIAL_KEYS = ("time", "lat", "lon", "height", "ve", "vn", "vu", "sigma_positi
 #: defaults of ``initial`` sigmas when not stated: 1-sigma per axis (m, m/s)
 INITIAL_SIGMA_POSITION = 100.0
 INITIAL_SIGMA_VELOCITY = 50.0
-#: |initial velocity| components (m/s)
+#: |speed| (m/s) of anything: the speed of light (initial velocities, processing.max_speed)
 MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
@@ -60,8 +60,9 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
 # billion output epochs per second).
 #: heights of the origin, sites and stations (m): deepest trench to beyond the Moon's distance
 HEIGHT_BOUNDS = (-12_000.0, 1.0e9)
-#: |time_offset| (s): the same bound as the time stamps themselves (editing.timecheck)
-MAX_TIME_OFFSET = 1.0e10
+#: |time| (s) of any time stamp, time_offset or initial time: about 317 years, float64 still
+#: resolves 2e-6 s there (also the screening's bound on the stamps, ``editing.timecheck``)
+MAX_ABS_TIME = 1.0e10
 #: output.rate_hz (Hz): one epoch per 1000 s to 1000 per second
 RATE_HZ_BOUNDS = (1e-3, 1000.0)
 #: processing.noise_passes
@@ -77,7 +78,7 @@ MAX_SIGMA_ANGLE = 2.0 * math.pi
 MAX_LEVER_ARM = 1.0e4
 #: processing.max_gap, time_margin (s), max_speed (m/s), max_range (m): (low, high)
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
-    "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, 3.0e8),
+    "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, MAX_SPEED),
     "max_range": (1.0, 1.0e12)})
 FILTERS = ("ekf", "ukf", "sage-husa", "askf")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
@@ -287,8 +288,8 @@ class _Validator:
 
     def initial(self, x: object, key: str) -> InitialState:
         t = self.table(x, key, _INITIAL_KEYS)
-        time = self.bounded(self.required(t, "time", key), f"{key}.time", -MAX_TIME_OFFSET,
-                            MAX_TIME_OFFSET, "s")
+        time = self.bounded(self.required(t, "time", key), f"{key}.time", -MAX_ABS_TIME,
+                            MAX_ABS_TIME, "s")
         position = self.geodetic({k: t[k] for k in _GEODETIC_KEYS if k in t}, key)
         velocity = tuple(self.bounded(t.get(k, 0.0), f"{key}.{k}", -MAX_SPEED, MAX_SPEED, "m/s")
                          for k in ("ve", "vn", "vu"))
@@ -365,7 +366,7 @@ class _Validator:
                              f"unknown angle unit '{unit}' (expected one of: "
                              f"{_join(ANGLE_UNITS)})")
         time_offset = self.bounded(t.get("time_offset", 0.0), f"{key}.time_offset",
-                                   -MAX_TIME_OFFSET, MAX_TIME_OFFSET, "s")
+                                   -MAX_ABS_TIME, MAX_ABS_TIME, "s")
         allow_disjoint = self.boolean(t.get("allow_disjoint_time", False),
                                       f"{key}.allow_disjoint_time")
 

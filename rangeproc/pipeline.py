@@ -28,8 +28,7 @@ from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
-from rangeproc.fusion.initialise import NoPositionFix, Prior
-from rangeproc.fusion.initialise import given_prior as prior_from_state
+from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.io.logs import SensorLog
 from rangeproc.io.output import fused_table
@@ -76,13 +75,13 @@ def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
     return logs
 
 
-def given_prior(target: TargetSettings, frame: RangeFrame) -> Prior | None:
+def target_prior(target: TargetSettings, frame: RangeFrame) -> Prior | None:
     """The target's ``initial`` state in the range ENU frame, or None."""
     init = target.initial
     if init is None:
         return None
     p = init.position
-    return prior_from_state(init.time, frame.to_enu(p.lat, p.lon, p.height).reshape(3),
+    return given_prior(init.time, frame.to_enu(p.lat, p.lon, p.height).reshape(3),
                             np.asarray(init.velocity), init.sigma_position, init.sigma_velocity)
 
 
@@ -202,7 +201,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                 fused.append((tgt.id, fuse_target(
                     batch, cfg.output.rate_hz, settings,
                     tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"),
-                    prior=given_prior(tgt, frame))))
+                    prior=target_prior(tgt, frame))))
             except NoPositionFix as exc:
                 raise _needs_initial(cfg, tgt.id, str(exc)) from None
             del batch

@@ -37,15 +37,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rangeproc.config import SensorSettings
+from rangeproc.config import HEIGHT_BOUNDS, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
 from rangeproc.frames.geodesy import aer_to_enu, geodetic_to_ecef
 from rangeproc.io.logs import SensorLog, replace_columns, select_rows
 
 #: Shortest range accepted (m): below any radar's blind range or laser ranger's minimum.
 MIN_RANGE = 1.0
-#: Lowest ellipsoidal height accepted (m): below the deepest ocean trench and geoid low.
-MIN_HEIGHT = -12_000.0
+#: Lowest ellipsoidal height accepted (m): below the deepest ocean trench and geoid low
+#: (the config's lowest site height too).
+MIN_HEIGHT = HEIGHT_BOUNDS[0]
 #: Largest |azimuth|, |roll|, |yaw| accepted (rad).
 MAX_WRAPPED_ANGLE = 4.0 * math.pi
 #: Multipliers of the speed test's noise tolerance.

@@ -28,13 +28,11 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from rangeproc.config import SensorSettings
+from rangeproc.config import MAX_ABS_TIME, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog, select_rows
 
-#: Largest |time| (s) accepted: about 317 years; float64 still resolves 2e-6 s there.
-MAX_ABS_TIME = 1e10
 #: An isolated cluster holds at most this many rows ...
 ISOLATED_MAX_ROWS = 5
 #: ... and less than this fraction of the sensor's rows.

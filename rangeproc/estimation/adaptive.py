@@ -24,7 +24,8 @@ a divergence test that falls back: when the filter's divergence guard fires (a s
 noise is adapted by the smoother's local EM statistic (``estimation.tuning``), the offline
 counterpart of seed 002's recursive ``Q``.
 
-State layout (arrays owned by the caller, one row per series ``g = sensor * 6 + component``):
+State layout (arrays allocated by ``kalman_forward``, one row per series
+``g = sensor * 6 + component``):
 ``buf (G, W, 2)`` ring of (ratio, innovation), ``count (G,)``, ``pos (G,)``, ``acc (G, 2)``
 running sums.
 """
@@ -42,14 +43,6 @@ SH_WARMUP = 20
 #: Bounds of the true/a-priori variance ratio.
 SH_MIN_RATIO = 1e-4
 SH_MAX_RATIO = 1e6
-
-
-def sage_husa_state(n_sensors: int, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                          np.ndarray]:
-    """Fresh window arrays (buf, count, pos, acc) for ``n_sensors`` sensors."""
-    g = max(n_sensors, 1) * N_COMPONENTS
-    return (np.zeros((g, max(window, 1), 2)), np.zeros(g, np.int64), np.zeros(g, np.int64),
-            np.zeros((g, 2)))
 
 
 @njit(cache=True, inline="always")

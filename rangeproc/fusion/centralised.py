@@ -30,9 +30,9 @@ import numpy as np
 from scipy.stats import chi2
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
-from rangeproc.errors import DataError, NumericalError
-from rangeproc.estimation.forward import EKF, kalman_forward
+from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
+from rangeproc.estimation.forward import EKF, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
@@ -188,7 +188,7 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     position fix to start from.
 
     Raises:
-        DataError: no span can be started (the first span's reason).
+        NoPositionFix: no span can be started (the first span's reason).
     """
     slices = span_slices(batch.t, settings.max_gap)
     if prior is not None:
@@ -200,7 +200,7 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         return replace(result, spans=((float(batch.t[0]), float(batch.t[-1])),))
     done: list[FusionResult] = []
     unstarted: dict[int, int] = {}
-    first_error: DataError | None = None
+    first_error: NoPositionFix | None = None
     ticked = 0.0
     for j, sl in enumerate(slices):
         part = batch.rows(sl)
@@ -216,7 +216,7 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         try:
             done.append(fuse_span(part, rate_hz, settings, span_tick,
                                   prior if prior is not None and j == with_prior else None))
-        except DataError as exc:
+        except NoPositionFix as exc:
             first_error = first_error or exc
             log.warning("span %.3f to %.3f s (%d rows) left out: %s", part.t[0], part.t[-1],
                         len(part), exc)

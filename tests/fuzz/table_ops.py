@@ -47,6 +47,10 @@ class Tab:
     parquet: bool
     types: dict[str, pa.DataType]
 
+    def index(self, column: str) -> int | None:
+        """Position of ``column`` in the header, or None when the file lacks it."""
+        return self.names.index(column) if column in self.names else None
+
 
 def _column_array(values: list[Any], t: pa.DataType | None) -> pa.Array:
     """Values -> Arrow array: the original type if they fit, else float64, else strings."""
@@ -264,9 +268,9 @@ class ColumnMap(Op):
 
     def apply(self, work: Work) -> None:
         tab = work.load(self.file)
-        if self.column not in tab.names:
+        j = tab.index(self.column)
+        if j is None:
             return
-        j = tab.names.index(self.column)
         for i in self.rows.indices(len(tab.rows)):
             row = tab.rows[i]
             if j >= len(row):
@@ -296,9 +300,9 @@ class CopyPrevious(Op):
 
     def apply(self, work: Work) -> None:
         tab = work.load(self.file)
-        if self.column not in tab.names:
+        j = tab.index(self.column)
+        if j is None:
             return
-        j = tab.names.index(self.column)
         for i in self.rows.indices(len(tab.rows)):
             if i > 0 and j < len(tab.rows[i]) and j < len(tab.rows[i - 1]):
                 tab.rows[i][j] = tab.rows[i - 1][j]
