@@ -99,11 +99,13 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
 def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
-                     maneuver_norm: float = 0.0) -> tuple:
+                     maneuver_norm: float = 0.0, stf: np.ndarray | None = None) -> tuple:
     """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
     ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
     sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise;
-    ``maneuver_norm`` > 0: seed 004's norm constraint at every epoch (m/s^2)."""
+    ``maneuver_norm`` > 0: seed 004's norm constraint at every epoch (m/s^2); ``stf``: seed
+    001's strong-tracking parameters (``rangeproc.estimation.fading``), None = off."""
+    from rangeproc.estimation.forward import NO_FADING
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -115,7 +117,7 @@ def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
             np.empty((0, 9)), int(method), UKF_PARAMS.copy(), int(adapt_window),
-            adapt_window > 0, float(maneuver_norm))
+            adapt_window > 0, float(maneuver_norm), NO_FADING if stf is None else stf)
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -53,7 +53,8 @@ INITIAL_SIGMA_VELOCITY = 50.0
 MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
-                    "sage_husa_window", "sage_husa_mean", "maneuver_norm")
+                    "sage_husa_window", "sage_husa_mean", "maneuver_norm",
+                    "stukf_forgetting", "stukf_weakening", "stukf_ratios")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -79,8 +80,11 @@ MAX_LEVER_ARM = 1.0e4
 #: processing.max_gap, time_margin (s), max_speed (m/s), max_range (m): (low, high)
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, MAX_SPEED),
-    "max_range": (1.0, 1.0e12)})
-FILTERS = ("ekf", "ukf", "sage-husa", "askf")
+    "max_range": (1.0, 1.0e12), "stukf_forgetting": (1e-3, 1.0),
+    "stukf_weakening": (1.0, 1e3)})
+#: Bounds of each strong-tracking prior ratio alpha (seed 001: alpha >= 1).
+STUKF_RATIO_BOUNDS = (1.0, 1e3)
+FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -343,6 +347,13 @@ class _Validator:
         for name, (lo, hi) in PROCESSING_BOUNDS.items():
             if name in t:
                 kw[name] = self.bounded(t[name], f"processing.{name}", lo, hi)
+        if "stukf_ratios" in t:
+            r = t["stukf_ratios"]
+            if not isinstance(r, list) or len(r) != 3:
+                raise self.error("processing.stukf_ratios", "expected 3 numbers (position, "
+                                 f"velocity, acceleration), got {_show(r)}")
+            kw["stukf_ratios"] = tuple(self.bounded(v, f"processing.stukf_ratios[{i}]",
+                                                    *STUKF_RATIO_BOUNDS) for i, v in enumerate(r))
         if "filter" in t:
             f = self.string(t["filter"], "processing.filter")
             if f not in FILTERS:

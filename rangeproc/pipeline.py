@@ -59,10 +59,13 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
     p = cfg.processing
     return EstimatorSettings(gate_probability=p.gate_probability, noise_passes=p.noise_passes,
                              adapt_noise=p.adapt_noise, process_noise=p.process_noise,
-                             method=UKF if p.filter == "ukf" else EKF, max_gap=p.max_gap,
+                             method=UKF if p.filter in ("ukf", "stukf") else EKF,
+                             max_gap=p.max_gap,
                              adapt_window=p.sage_husa_window if p.filter == "sage-husa" else 0,
                              adapt_mean=p.sage_husa_mean, askf=p.filter == "askf",
-                             maneuver_norm=p.maneuver_norm)
+                             maneuver_norm=p.maneuver_norm,
+                             stf=(p.stukf_forgetting, p.stukf_weakening, *p.stukf_ratios)
+                             if p.filter == "stukf" else ())
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None

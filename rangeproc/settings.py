@@ -14,6 +14,12 @@ from types import MappingProxyType
 
 SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
 ANGLE_UNITS = ("deg", "rad", "mil")
+#: Default strong-tracking weakening factor beta (seed 001 leaves it to experience). With
+#: rho = 0.95 the innovation-covariance estimate V is an exponential average putting about
+#: half its weight on the newest innovation, so for white innovations of one component V has
+#: a standard deviation of about 0.83 around 1: beta = 3 (some 2.4 of those above the mean)
+#: keeps noise alone from fading a consistent filter, and a real model error still does.
+STUKF_WEAKENING = 3.0
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -99,13 +105,17 @@ class ProcessingSettings:
     adapt_noise: estimate per-sensor noise (and local bursts) from the data.
     process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
         estimate it from the data (maximum likelihood, then local EM).
-    filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "sage-husa" (the EKF with
+    filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "stukf" (strong-tracking UKF
+        with multiple suboptimal fading factors, seed 001), "sage-husa" (the EKF with
         improved Sage-Husa adaptive measurement noise, seed 002) or "askf" (augmented-state
         filter with the maneuver-norm constraint, seed 004).
     sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
     sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
     maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
         (seed 004); None = estimate it.
+    stukf_forgetting, stukf_weakening, stukf_ratios: the strong-tracking forgetting factor rho
+        of the innovation covariance (seed 001: 0.95), weakening factor beta >= 1 and prior
+        ratios alpha >= 1 of position, velocity and acceleration (``estimation.fading``).
     max_gap: a target unobserved for longer than this (s) is split into separate spans with no
         output epochs in between; also the distance that makes a sensor's time stamps isolated.
     time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
@@ -127,6 +137,9 @@ class ProcessingSettings:
     sage_husa_window: int = 100
     sage_husa_mean: bool = False
     maneuver_norm: float | None = None
+    stukf_forgetting: float = 0.95
+    stukf_weakening: float = STUKF_WEAKENING
+    stukf_ratios: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

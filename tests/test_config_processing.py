@@ -35,8 +35,20 @@ def test_ukf_selected(tmp_path):
     assert cfg.processing.noise_passes == 1
 
 
+def test_stukf_keys(tmp_path):
+    cfg = load_config(_write(tmp_path, '\n[processing]\nfilter = "stukf"\nstukf_forgetting = 0.9\n'
+                                       "stukf_weakening = 4.0\nstukf_ratios = [1, 1, 2.5]\n"))
+    p = cfg.processing
+    assert (p.filter, p.stukf_forgetting, p.stukf_weakening) == ("stukf", 0.9, 4.0)
+    assert p.stukf_ratios == (1.0, 1.0, 2.5)
+
+
 @pytest.mark.parametrize("extra, key", [
     ('\n[processing]\nfilter = "pf"\n', "processing.filter"),
+    ("\n[processing]\nstukf_weakening = 0.5\n", "processing.stukf_weakening"),
+    ("\n[processing]\nstukf_forgetting = 1.5\n", "processing.stukf_forgetting"),
+    ("\n[processing]\nstukf_ratios = [1, 2]\n", "processing.stukf_ratios"),
+    ("\n[processing]\nstukf_ratios = [1, 0.5, 1]\n", "processing.stukf_ratios[1]"),
     ("\n[processing]\nfilter = 3\n", "processing.filter"),
     ("\n[processing]\nfiltre = \"ukf\"\n", "filtre"),
 ])

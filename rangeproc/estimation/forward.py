@@ -29,6 +29,13 @@ from numba import njit
 
 from rangeproc.estimation.adaptive import sh_adapt, sh_record, sh_reset
 from rangeproc.estimation.constraint import norm_update
+from rangeproc.estimation.fading import (
+    STF_RHO,
+    STF_WARMUP,
+    apply_fading,
+    epoch_innovations,
+    fading_factors,
+)
 from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack
 from rangeproc.models.measurement import (
@@ -48,6 +55,9 @@ LOG_2PI = math.log(2.0 * math.pi)
 #: value that slipped past editing) must not blow the covariance up to where the next updates
 #: lose positive definiteness to rounding.
 MAX_RESET_INFLATION = 1e6
+
+#: ``stf`` argument of :func:`kalman_forward` that switches strong-tracking fading off.
+NO_FADING = np.zeros(0)
 
 #: Update methods of :func:`kalman_forward`.
 EKF = 0
@@ -164,6 +174,21 @@ def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray,
+                Qr: np.ndarray, x: np.ndarray, x_lin: np.ndarray, use_lin: bool,
+                P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray, L: np.ndarray,
+                Zs: np.ndarray, xs: np.ndarray, h: np.ndarray, H: np.ndarray,
+                y6: np.ndarray, y: np.ndarray, C: np.ndarray, Z: np.ndarray,
+                Hs: np.ndarray) -> None:
+    """Innovation moments of one row by :func:`ekf_moments` or :func:`ukf_moments`."""
+    if method == EKF:
+        ekf_moments(model, z, s, sv, Qr, x, x_lin, use_lin, P, idx, m, h, H, y6, y, C, Z, Hs)
+    elif not ukf_moments(model, z, s, sv, Qr, x, P, idx, m, ukf, L, Zs, xs, h, H, y6, y, C,
+                         Z):
+        raise FloatingPointError("covariance not positive definite in UKF")
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
                  Hs: np.ndarray, sel: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
                  gate: np.ndarray, joseph: bool, yw: np.ndarray, HP: np.ndarray,
@@ -265,7 +290,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                    Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                    q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
                    reset_inflation: float, x_lin: np.ndarray, method: int, ukf: np.ndarray,
-                   adapt_window: int, adapt_mean: bool, maneuver_norm: float):
+                   adapt_window: int, adapt_mean: bool, maneuver_norm: float,
+                   stf: np.ndarray):
     """Run the Kalman filter (EKF or UKF measurement update) over all epochs.
 
     Args:
@@ -298,6 +324,9 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         maneuver_norm: > 0: seed 004's constant-norm maneuver, ``||d|| = maneuver_norm``
             (m/s^2) on the acceleration block as a pseudo-measurement at every epoch after
             its rows (``estimation.constraint``), linearised at ``x_lin`` when given; 0: off.
+        stf: (5,) strong tracking (seed 001, ``estimation.fading``): forgetting factor rho,
+            weakening factor beta, prior ratios alpha of position, velocity, acceleration;
+            an empty array switches fading off.
 
     The motion model is linear (constant acceleration), so the prediction is exact for both
     methods and the UKF differs from the EKF only in the measurement update.
@@ -309,7 +338,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         c), loglik (Gaussian log-likelihood of the whitened innovations, rejected rows counted
         at the gate), n_resets (int), ll_rows (N,) each row's contribution to loglik,
         sigma_used (N, 6) the sigmas the update used (adapted; ``(0, 6)`` when adaptation is
-        off, the input sigmas then).
+        off, the input sigmas then), fade (E, 9) the fading factors applied to the
+        prediction ending at each epoch (``(0, 9)`` when fading is off).
     """
     E = epoch_t.shape[0]
     N = meas_epoch.shape[0]
@@ -356,6 +386,15 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     Pu = np.empty(n)
     y_raw = np.empty(N_COMPONENTS)
     joseph = method == EKF
+    fading = stf.shape[0] > 0
+    fade = np.ones((E if fading else 0, N_KINEMATIC))
+    v_stf = 0.0
+    n_stf = 0
+    G_stf = np.zeros((N_OBSERVED, N_OBSERVED))
+    Hw = np.zeros((N_COMPONENTS, N_OBSERVED))
+    St = np.empty((N_COMPONENTS, N_COMPONENTS))
+    tcol = np.empty((N_COMPONENTS, 1))
+    dt = 0.0
     loglik = 0.0
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
     n_resets = 0
@@ -366,6 +405,17 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             dt = epoch_t[k] - epoch_t[k - 1]
             predict_state(x, dt)
             predict_cov(P, AP, dt, q_steps[k])
+            if fading and dt > 0.0 and i < N and meas_epoch[i] == k:
+                e2, m_epoch = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv, Qr, x,
+                                                P, gate, G_stf, h, H, y6, Hw, St, tcol)
+                if m_epoch > 0:                          # strong tracking (estimation.fading)
+                    v_row = e2 / m_epoch
+                    v_stf = v_row if n_stf == 0 else (stf[STF_RHO] * v_stf + v_row) / (
+                        1.0 + stf[STF_RHO])
+                    n_stf += 1
+                    if n_stf > STF_WARMUP and fading_factors(stf, v_stf, m_epoch, G_stf, P,
+                                                             dt, q_steps[k], fade[k]):
+                        apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
             m = 0
             for c in range(N_COMPONENTS):
@@ -377,13 +427,9 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 i += 1
                 continue
             ll_before = loglik
-            if method == EKF:
-                ekf_moments(model[i], z[i], s[i], sv[i], Qr[i], x,
-                            x_lin[k] if use_lin else x, use_lin, P, idx, m, h, H, y6, y, C,
-                            Z, Hs)
-            elif not ukf_moments(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m, ukf, L,
-                                 Zs, xsig, h, H, y6, y, C, Z):
-                raise FloatingPointError("covariance not positive definite in UKF")
+            row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
+                        x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig, h,
+                        H, y6, y, C, Z, Hs)
             for a in range(m):
                 sel[a] = a
                 sig_row[a] = sigma[i, idx[a]]
@@ -459,4 +505,4 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 raise FloatingPointError("non-finite state in the Kalman filter")
         xf[k] = x
         pack(P, Pf[k])
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used
+    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used, fade

@@ -17,13 +17,16 @@ It also returns the EM statistic of the process noise (Shumway & Stoffer 1982): 
 the expected squared acceleration increment given all data,
 ``E[(a_{k+1} - a_k)^2 | Z] = (da_s)^2 + P_{k+1|N} + P_{k|N} - 2 P_{k+1,k|N}`` averaged over the
 three axes, with the lag-one covariance ``P_{k+1,k|N} = P_{k+1|N} C_k^T``. Under the
-white-jerk model its expectation is ``q dt``, so windowed sums give a local q.
+white-jerk model its expectation is ``q dt``, so windowed sums give a local q. (On a step the
+strong-tracking filter faded, the fading's own share of the acceleration variance,
+``Q_eff - q dt`` on the acceleration diagonal, is taken out: it is not white jerk.)
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation.fading import apply_fading
 from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
@@ -35,9 +38,9 @@ JITTER = (1e-12, 1e-10, 1e-8, 1e-6)
 
 @njit(cache=True, error_model="numpy")
 def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: float,
-                       q: float) -> bool:
-    """Recompute ``P_pred = F P_f F^T + Q`` and factor it with the smallest diagonal loading
-    ``jitter * max(diag)`` of :data:`JITTER` that makes it positive definite (in place).
+                       q: float, lam: np.ndarray, faded: bool) -> bool:
+    """Recompute ``P_pred = F P_f F^T + Q`` (faded by ``lam`` when ``faded``) and factor it
+    with the smallest diagonal loading ``jitter * max(diag)`` of :data:`JITTER` that makes it positive definite (in place).
 
     The loading is a negligible extra process noise at that one step; False when even the
     largest fails (the covariance is then genuinely broken)."""
@@ -48,6 +51,8 @@ def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: f
             for j in range(n):
                 P_pred[i, j] = P_f[i, j]
         predict_cov(P_pred, T, dt, q)
+        if faded:
+            apply_fading(P_pred, lam, dt, q)
         for i in range(n):
             scale = max(scale, abs(P_pred[i, i]))
         if not scale > 0.0:
@@ -61,7 +66,7 @@ def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: f
 
 @njit(cache=True, error_model="numpy")
 def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
-               want_em: bool = True, in_place: bool = False):
+               want_em: bool = True, in_place: bool = False, fade=None):
     """Smooth filtered states.
 
     Args:
@@ -71,6 +76,11 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
         want_em: compute the EM statistic (skipped when only the smoothed track is wanted).
         in_place: overwrite ``xf`` and ``Pf`` with the smoothed values instead of copying
             them (halves the stored history on long runs).
+        fade: None, or (E, 9) the strong-tracking fading factors the filter applied to the
+            prediction ending at each epoch (``estimation.fading``): the predicted covariance
+            is then ``Lambda^(1/2) F P F^T Lambda^(1/2) + Q`` and the step's effective process
+            noise ``P_pred - F P F^T`` replaces Q in the smoothed covariance (the smoother of
+            the model the filter actually ran).
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) packed smoothed states and covariances, and
@@ -93,6 +103,8 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     At = np.empty((n, n))
     T = np.empty((n, n))
     M = np.empty((n, n))
+    Q_eff = np.empty((n, n))
+    no_fade = np.ones(9)
     x_pred = np.empty(n)
     x_filt = np.empty(n)                             # filtered state at k
     dx = np.empty(n)
@@ -108,8 +120,24 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                 P_pred[i, j] = P_f[i, j]
         predict_state(x_pred, dt)
         predict_cov(P_pred, T, dt, q)                  # P_pred = F P_f F^T + Q
+        lam = no_fade
+        faded = False
+        if fade is not None:
+            lam = fade[k + 1]
+            for i in range(lam.shape[0]):
+                faded = faded or lam[i] != 1.0
+        if faded:                                      # Q_eff = P_pred - F P_f F^T
+            for i in range(n):
+                for j in range(n):
+                    Q_eff[i, j] = -P_pred[i, j]
+            apply_fading(P_pred, lam, dt, q)
+            for i in range(n):
+                for j in range(n):
+                    Q_eff[i, j] += P_pred[i, j]
+            add_q(Q_eff, dt, q)
         left_f(P_f, Ct, dt)                            # F P_f
-        if not cholesky_inplace(P_pred, n) and not _jittered_cholesky(P_pred, P_f, T, dt, q):
+        if not cholesky_inplace(P_pred, n) and not _jittered_cholesky(P_pred, P_f, T, dt, q,
+                                                                      lam, faded):
             raise FloatingPointError("predicted covariance not positive definite in RTS")
         chol_solve_inplace(P_pred, n, Ct, n)           # C^T = P_pred^-1 F P_f (in place)
         for i in range(n):
@@ -136,8 +164,9 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                     M[i, j] += a * P_f[l, j]
         for i in range(n):                             # T = P_next + Q
             for j in range(n):
-                T[i, j] = P_next[i, j]
-        add_q(T, dt, q)
+                T[i, j] = P_next[i, j] + (Q_eff[i, j] if faded else 0.0)
+        if not faded:
+            add_q(T, dt, q)
         for i in range(n):                             # FP <- C (P_next + Q)
             for j in range(n):
                 FP[i, j] = 0.0
@@ -165,7 +194,9 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                     cross += P_next[ax, l] * Ct[l, ax]
                 d = xs[k + 1, ax] - xs[k, ax]
                 acc += d * d + P_next[ax, ax] + P_f[ax, ax] - 2.0 * cross
-            em[k + 1] = acc / 3.0
+                if faded:                              # the fading's share is not white jerk
+                    acc -= Q_eff[ax, ax] - q * dt
+            em[k + 1] = max(acc, 0.0) / 3.0
         P_next, P_f = P_f, P_next                      # smoothed k becomes "next"
     return xs, Ps, em
 

@@ -67,6 +67,8 @@ class EstimatorSettings:
         ``maneuver_norm`` (m/s^2) when given, else estimated from the first pass's smoothed
         accelerations (``estimation.constraint.estimate_norm``); without a usable norm the
         unconstrained ASKF (the constant-acceleration EKF).
+    stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
+        alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
     """
 
     gate_probability: float = 0.9999
@@ -84,6 +86,7 @@ class EstimatorSettings:
     adapt_mean: bool = False
     askf: bool = False
     maneuver_norm: float | None = None
+    stf: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,12 +156,17 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
          maneuver_norm: float = 0.0):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, rej, _, resets, _, sigma_used = kalman_forward(
+        xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
             st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean,
-            maneuver_norm)
-        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True)   # in place over xf, Pf
+            maneuver_norm, np.asarray(st.stf, dtype=np.float64))
+        if fade.shape[0]:
+            faded = fade.max(axis=1) > 1.0
+            log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
+                     int(faded.sum()), len(faded), float(fade.max()))
+        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
+                                fade if fade.shape[0] else None)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
