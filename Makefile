@@ -7,7 +7,7 @@ SEEDS ?= 1 2 3 4 5 6
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick reproduce sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick reproduce accuracy sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -38,8 +38,13 @@ bench: $(STAMP)
 bench-quick: $(STAMP)
 	$(BIN)/python bench/bench.py --quick
 
-## reproduce: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite).
+## reproduce: each source document's experiment (bench/reproduction/) -> reproduction/README.md
+## (claim vs our figure table) and PNGs; ONLY="002 004" runs a subset.
 reproduce: $(STAMP)
+	$(BIN)/python -m bench.reproduction $(if $(ONLY),--only $(ONLY))
+
+## accuracy: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite).
+accuracy: $(STAMP)
 	$(BIN)/python bench/reproduce.py --seeds $(SEEDS)
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
