@@ -243,7 +243,8 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                                 "p95": float(np.percentile(result.q, 95)),
                                 "max": float(np.max(result.q))},
             "divergence_resets": result.n_resets,
-            "maneuver_norm": {"unit": "m/s^2", "imposed": result.maneuver_norm},
+            "maneuver_norm": {"unit": "m/s^2", "given": settings.maneuver_norm,
+                              "imposed": result.maneuver_norm},
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
     if not tracks:

@@ -42,6 +42,7 @@ from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, pri
 log = logging.getLogger(__name__)
 
 
+
 @dataclass(frozen=True, kw_only=True, slots=True)
 class EstimatorSettings:
     """Settings of the centralised estimator.
@@ -176,6 +177,41 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
     return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets, batch
 
 
+def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
+    """Mean squared whitened residual over the used components (1 for a consistent fit)."""
+    w = np.where(used, res / sigma, 0.0)
+    return float((w * w).sum() / max(int(used.sum()), 1))
+
+
+def constraint_agrees(constrained, free, rho: float) -> bool:
+    """Whether the data agree with the maneuver norm ``rho`` the constrained ASKF imposed.
+
+    A wrong norm (given 3 % high, say) cannot be met by turning the maneuver and drags the
+    track off the measurements. Both refined results (``_run`` tuples) are compared on the
+    components both used, whitened by the unconstrained fit's sigmas (each fit's own noise
+    re-estimation would otherwise absorb the misfit). The unconstrained smoother's mean squared
+    whitened residual is ``1 - h`` with ``h`` the mean ``H P_s H^T / sigma^2`` (the share of
+    the noise its state absorbs), so a true constraint, which can at most take that freedom
+    away, leaves a misfit up to the noise level ``u_fit + h``; beyond it, plus three standard
+    deviations of a mean of ``n`` chi-square(1) terms, the data reject the norm.
+    """
+    both = constrained[5] & free[5]
+    sigma = free[9].sigma
+    n = max(int(both.sum()), 1)
+    c_fit = data_misfit(constrained[6], sigma, both)
+    u_fit = data_misfit(free[6], sigma, both)
+    absorbed = float(np.where(both, free[7] / sigma**2, 0.0).sum() / n)
+    bound = u_fit + absorbed + 3.0 * np.sqrt(2.0 / n)
+    if c_fit <= bound:
+        log.info("askf: norm %.4g m/s^2 agrees with the data (misfit %.3g, noise level %.3g)",
+                 rho, c_fit, bound)
+        return True
+    log.warning("askf: the data reject the maneuver norm %.4g m/s^2 (mean squared whitened "
+                "residual %.3g beyond the noise level %.3g): constraint dropped", rho, c_fit,
+                bound)
+    return False
+
+
 def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
     """Cut ascending row times ``t`` (s) wherever a step exceeds ``max_gap`` (s)."""
     cuts = (np.flatnonzero(np.diff(t) > max_gap) + 1).tolist()
@@ -298,24 +334,33 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
     rho = settings.maneuver_norm if settings.askf else None
-    out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
+    first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
     if settings.askf and rho is None:
-        rho = estimate_norm(out[0][grid][:, 6:9])
+        rho = estimate_norm(first[0][grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
-    noise: dict[tuple[int, int], float] = {}
-    for p in range(settings.noise_passes):
-        xs, Ps, em, nis, dof, used, res, hph, _, _ = out
-        x_lin = xs
-        if settings.adapt_noise:
-            sigma, noise = residual_sigma(batch, res, hph, used)
-            batch = batch.with_sigma(sigma)
-        if settings.process_noise is None:
-            q = local_process_noise(epoch_t, em, window=settings.q_window)
-        log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
-        out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin, rho or 0.0)
-        tick(1, f"pass {p + 2}")
+
+    def refine(rho: float | None, tick=tick):
+        """The refinement passes from the first pass, constrained to ``rho`` when given."""
+        out, b, qq, noise = first, batch, q, {}
+        for p in range(settings.noise_passes):
+            xs, Ps, em, nis, dof, used, res, hph, _, _ = out
+            if settings.adapt_noise:
+                sigma, noise = residual_sigma(b, res, hph, used)
+                b = b.with_sigma(sigma)
+            if settings.process_noise is None:
+                qq = local_process_noise(epoch_t, em, window=settings.q_window)
+            log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
+            out = _run(b, epoch_t, meas_epoch, x0, P0, qq, gate, settings, xs, rho or 0.0)
+            tick(1, f"pass {p + 2}")
+        return out, qq, noise
+
+    out, q, noise = refine(rho)
+    if rho is not None and settings.noise_passes > 0:
+        free = refine(None, tick=lambda *a, **k: None)
+        if not constraint_agrees(out, free[0], rho):
+            rho, (out, q, noise) = None, free
     xs, Ps, em, nis, dof, used, res, hph, resets, batch = out
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,

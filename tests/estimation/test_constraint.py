@@ -105,3 +105,18 @@ def test_askf_without_a_usable_norm_is_the_unconstrained_filter() -> None:
     askf = fuse_target(batch, 2.0, EstimatorSettings(noise_passes=1, askf=True))
     assert askf.maneuver_norm is None
     np.testing.assert_array_equal(plain.xs, askf.xs)
+
+
+def test_a_norm_the_data_reject_is_dropped(caplog) -> None:
+    """A given norm 5 % high cannot be met by turning the maneuver: the data reject it (misfit
+    beyond the noise level), the constraint is dropped with a warning and the result is the
+    unconstrained filter exactly; the right norm on the same data is kept."""
+    batch = thrust_case(3)[0]
+    plain = fuse_target(batch, 2.0, EstimatorSettings())
+    with caplog.at_level("WARNING"):
+        wrong = fuse_target(batch, 2.0, EstimatorSettings(askf=True, maneuver_norm=8.4))
+    assert wrong.maneuver_norm is None
+    assert "reject the maneuver norm 8.4" in caplog.text
+    np.testing.assert_array_equal(plain.xs, wrong.xs)
+    right = fuse_target(batch, 2.0, EstimatorSettings(askf=True, maneuver_norm=8.0))
+    assert right.maneuver_norm == 8.0
