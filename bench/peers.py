@@ -133,6 +133,19 @@ def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return xf, xs, Ps
 
 
+def rangeproc_imm_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The timed IMM call: ``args`` = the first 16 ``kalman_forward`` arguments (rows, prior,
+    q, gate, guard, ``x_lin``) + model codes, switching generator, initial probabilities;
+    IMM filter + Kim's smoother (pruning as the pipeline). Returns (xf, xs, Ps packed)."""
+    from rangeproc.estimation.imm import imm_forward, imm_smooth
+    from rangeproc.fusion.centralised import IMM_PRUNE
+    codes, lam = args[16], args[17]
+    out = imm_forward(*args)
+    xs, Ps, _ = imm_smooth(args[0], out[2], out[3], out[4], out[5], args[11], codes, lam,
+                           IMM_PRUNE)
+    return out[0], xs, Ps
+
+
 def rangeproc_estimates(out: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Estimates:
     """Unpack the kernel's output (packed lower triangle, row-major: diag i at i(i+3)/2)."""
     xf, xs, Ps = out

@@ -29,6 +29,7 @@ from rangeproc.settings import (  # re-exported: the config's public types
     ANGLE_UNITS as ANGLE_UNITS,
     Config as Config,
     DEFAULT_SIGMAS as DEFAULT_SIGMAS,
+    IMM_MODELS as IMM_MODELS,
     Geodetic as Geodetic,
     InitialState as InitialState,
     OutputSettings as OutputSettings,
@@ -54,7 +55,8 @@ MAX_SPEED = 3.0e8
 _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_noise",
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
                     "sage_husa_window", "sage_husa_mean", "maneuver_norm",
-                    "stukf_forgetting", "stukf_weakening", "stukf_ratios")
+                    "stukf_forgetting", "stukf_weakening", "stukf_ratios", "imm_models",
+                    "imm_sojourn")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -81,10 +83,10 @@ MAX_LEVER_ARM = 1.0e4
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, MAX_SPEED),
     "max_range": (1.0, 1.0e12), "stukf_forgetting": (1e-3, 1.0),
-    "stukf_weakening": (1.0, 1e3)})
+    "stukf_weakening": (1.0, 1e3), "imm_sojourn": (1e-3, 1e7)})
 #: Bounds of each strong-tracking prior ratio alpha (seed 001: alpha >= 1).
 STUKF_RATIO_BOUNDS = (1.0, 1e3)
-FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf")
+FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf", "imm")
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -354,6 +356,8 @@ class _Validator:
                                  f"velocity, acceleration), got {_show(r)}")
             kw["stukf_ratios"] = tuple(self.bounded(v, f"processing.stukf_ratios[{i}]",
                                                     *STUKF_RATIO_BOUNDS) for i, v in enumerate(r))
+        if "imm_models" in t:
+            kw["imm_models"] = self.imm_models(t["imm_models"])
         if "filter" in t:
             f = self.string(t["filter"], "processing.filter")
             if f not in FILTERS:
@@ -361,6 +365,19 @@ class _Validator:
                                  f"unknown filter {f!r} (expected one of: {_join(FILTERS)})")
             kw["filter"] = f
         return ProcessingSettings(**kw)
+
+    def imm_models(self, x: object) -> tuple[str, ...]:
+        key = "processing.imm_models"
+        names = ", ".join(f'"{m}"' for m in IMM_MODELS)
+        if not isinstance(x, list) or not x or not all(isinstance(m, str) for m in x):
+            raise self.error(key, f"expected a non-empty list of model names ({names}), got "
+                                  f"{_show(x)}")
+        for m in x:
+            if m not in IMM_MODELS:
+                raise self.error(key, f"unknown model {m!r} (expected one of: {names})")
+        if len(set(x)) != len(x):
+            raise self.error(key, f"a model is listed twice: {_show(x)}")
+        return tuple(x)
 
     def sensor(self, x: object, key: str, folder: Path) -> SensorSettings:
         t = self.table(x, key, _SENSOR_KEYS)

@@ -24,6 +24,7 @@ from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.errors import ConfigError, DataError
 from rangeproc.estimation.forward import EKF, UKF
+from rangeproc.estimation.imm import MODEL_NAMES
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
@@ -65,7 +66,9 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              adapt_mean=p.sage_husa_mean, askf=p.filter == "askf",
                              maneuver_norm=p.maneuver_norm,
                              stf=(p.stukf_forgetting, p.stukf_weakening, *p.stukf_ratios)
-                             if p.filter == "stukf" else ())
+                             if p.filter == "stukf" else (),
+                             imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
+                             if p.filter == "imm" else (), imm_sojourn=p.imm_sojourn)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None

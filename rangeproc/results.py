@@ -1,7 +1,7 @@
 """Result containers passed from the estimation stages to writers, reports and evaluation."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,7 +17,8 @@ class TrackEstimate:
     m/s^2); P: (K, 9, 9) state covariance; n_sensors: (K,) int64, distinct sensors with a used
     measurement within the output interval around each epoch; lat, lon (deg), height (m):
     (K,) geodetic position; spans: ((t_first, t_last), ...) s, the separately estimated spans
-    (the target was unobserved for longer than the gap limit between them: no epochs there).
+    (the target was unobserved for longer than the gap limit between them: no epochs there);
+    model_prob: the IMM's smoothed probability (K,) of each model by name (empty otherwise).
     """
 
     target_id: str
@@ -29,6 +30,7 @@ class TrackEstimate:
     lon: np.ndarray
     height: np.ndarray
     spans: tuple[tuple[float, float], ...] = ()
+    model_prob: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,6 +14,8 @@ from types import MappingProxyType
 
 SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
 ANGLE_UNITS = ("deg", "rad", "mil")
+#: Motion models of the IMM, in the order of ``estimation.imm``'s model codes.
+IMM_MODELS = ("cv", "ca", "ct")
 #: Default strong-tracking weakening factor beta (seed 001 leaves it to experience). With
 #: rho = 0.95 the innovation-covariance estimate V is an exponential average putting about
 #: half its weight on the newest innovation, so for white innovations of one component V has
@@ -107,8 +109,9 @@ class ProcessingSettings:
         estimate it from the data (maximum likelihood, then local EM).
     filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "stukf" (strong-tracking UKF
         with multiple suboptimal fading factors, seed 001), "sage-husa" (the EKF with
-        improved Sage-Husa adaptive measurement noise, seed 002) or "askf" (augmented-state
-        filter with the maneuver-norm constraint, seed 004).
+        improved Sage-Husa adaptive measurement noise, seed 002), "imm" (interacting multiple
+        models with Kim's smoother) or "askf" (augmented-state filter with the maneuver-norm
+        constraint, seed 004).
     sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
     sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
     maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
@@ -116,6 +119,8 @@ class ProcessingSettings:
     stukf_forgetting, stukf_weakening, stukf_ratios: the strong-tracking forgetting factor rho
         of the innovation covariance (seed 001: 0.95), weakening factor beta >= 1 and prior
         ratios alpha >= 1 of position, velocity and acceleration (``estimation.fading``).
+    imm_models, imm_sojourn: the IMM's model set (of "cv", "ca", "ct") and the mean time (s)
+        spent in a model before switching, to each other model alike (``estimation.imm``).
     max_gap: a target unobserved for longer than this (s) is split into separate spans with no
         output epochs in between; also the distance that makes a sensor's time stamps isolated.
     time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
@@ -140,6 +145,8 @@ class ProcessingSettings:
     stukf_forgetting: float = 0.95
     stukf_weakening: float = STUKF_WEAKENING
     stukf_ratios: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    imm_models: tuple[str, ...] = ("cv", "ca", "ct")
+    imm_sojourn: float = 10.0
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

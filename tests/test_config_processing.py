@@ -43,8 +43,19 @@ def test_stukf_keys(tmp_path):
     assert p.stukf_ratios == (1.0, 1.0, 2.5)
 
 
+def test_imm_keys(tmp_path):
+    cfg = load_config(_write(tmp_path, '\n[processing]\nfilter = "imm"\nimm_models = ["ca", "ct"]\n'
+                                       "imm_sojourn = 4.0\n"))
+    assert cfg.processing.imm_models == ("ca", "ct") and cfg.processing.imm_sojourn == 4.0
+    assert ProcessingSettings().imm_models == ("cv", "ca", "ct")
+
+
 @pytest.mark.parametrize("extra, key", [
     ('\n[processing]\nfilter = "pf"\n', "processing.filter"),
+    ('\n[processing]\nimm_models = ["ca", "xx"]\n', "processing.imm_models"),
+    ('\n[processing]\nimm_models = []\n', "processing.imm_models"),
+    ('\n[processing]\nimm_models = ["ca", "ca"]\n', "processing.imm_models"),
+    ("\n[processing]\nimm_sojourn = 0.0\n", "processing.imm_sojourn"),
     ("\n[processing]\nstukf_weakening = 0.5\n", "processing.stukf_weakening"),
     ("\n[processing]\nstukf_forgetting = 1.5\n", "processing.stukf_forgetting"),
     ("\n[processing]\nstukf_ratios = [1, 2]\n", "processing.stukf_ratios"),

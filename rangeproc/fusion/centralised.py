@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import chi2
@@ -33,6 +34,7 @@ from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, kalman_forward
+from rangeproc.estimation.imm import MODEL_NAMES, imm_forward, imm_smooth
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
@@ -40,6 +42,10 @@ from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 
 log = logging.getLogger(__name__)
+
+#: Relative weight below which a model pair is left out of the IMM smoother
+#: (``estimation.imm.imm_smooth``).
+IMM_PRUNE = 1e-3
 
 
 
@@ -68,6 +74,10 @@ class EstimatorSettings:
         ``maneuver_norm`` (m/s^2) when given, else estimated from the first pass's smoothed
         accelerations (``estimation.constraint.estimate_norm``); without a usable norm the
         unconstrained ASKF (the constant-acceleration EKF).
+    imm_models: model codes of the IMM (``estimation.imm``: CV, CA, CT); empty = no IMM. The
+        IMM uses EKF updates and keeps the process noise of the first pass (its models carry
+        the dynamics the local EM would otherwise follow). imm_sojourn: mean time (s) in a
+        model before a switch.
     stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
         alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
     """
@@ -88,6 +98,8 @@ class EstimatorSettings:
     askf: bool = False
     maneuver_norm: float | None = None
     stf: tuple[float, ...] = ()
+    imm_models: tuple[int, ...] = ()
+    imm_sojourn: float = 10.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,7 +115,9 @@ class FusionResult:
     (sensor index, component); n_resets: divergence-guard resets in the final pass;
     spans: ((t_first, t_last), ...) s of the estimated spans; n_unstarted: rows per sensor
     index of spans that could not be started (no position fix) and are not in ``batch``;
-    maneuver_norm: the norm (m/s^2) the constrained ASKF imposed, None when unconstrained.
+    maneuver_norm: the norm (m/s^2) the constrained ASKF imposed, None when unconstrained;
+    model_prob: (E, r) the IMM's smoothed model probabilities, model_names their models (None
+    and () for the other filters).
     """
 
     epoch_t: np.ndarray
@@ -123,6 +137,8 @@ class FusionResult:
     spans: tuple[tuple[float, float], ...] = ()
     n_unstarted: dict[int, int] = field(default_factory=dict)
     maneuver_norm: float | None = None
+    model_prob: np.ndarray | None = None
+    model_names: tuple[str, ...] = ()
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -153,28 +169,78 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
     return np.isfinite(z) & (bits == 0)
 
 
+class PassResult(NamedTuple):
+    """One filter + smoother pass: smoothed ``xs`` (E, n), packed ``Ps``; ``em`` (E,) the EM
+    process-noise statistic (None for the IMM, whose models carry their own dynamics); per row
+    ``nis``, ``dof``, ``used`` (N, 6), ``res``, ``hph`` (N, 6); divergence-guard ``resets``;
+    the ``batch`` with the sigmas used; ``model_prob`` (E, r) the IMM's smoothed model
+    probabilities (None otherwise)."""
+
+    xs: np.ndarray
+    Ps: np.ndarray
+    em: np.ndarray | None
+    nis: np.ndarray
+    dof: np.ndarray
+    used: np.ndarray
+    res: np.ndarray
+    hph: np.ndarray
+    resets: int
+    batch: MeasurementBatch
+    model_prob: np.ndarray | None = None
+
+
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
-         maneuver_norm: float = 0.0):
+         maneuver_norm: float = 0.0) -> PassResult:
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
+    model_prob = None
     try:
-        xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade = kalman_forward(
-            epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-            batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
-            st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean,
-            maneuver_norm, np.asarray(st.stf, dtype=np.float64))
-        if fade.shape[0]:
-            faded = fade.max(axis=1) > 1.0
-            log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
-                     int(faded.sum()), len(faded), float(fade.max()))
-        xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
-                                fade if fade.shape[0] else None)
+        if st.imm_models:
+            xs, Ps, model_prob, nis, dof, rej, resets = _run_imm(batch, epoch_t, meas_epoch,
+                                                                 x0, P0, q, gate, st, x_lin)
+            em, sigma_used = None, np.zeros((0, 6))
+        else:
+            xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade = kalman_forward(
+                epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation,
+                x_lin, st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window,
+                st.adapt_mean, maneuver_norm, np.asarray(st.stf, dtype=np.float64))
+            if fade.shape[0]:
+                faded = fade.max(axis=1) > 1.0
+                log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
+                         int(faded.sum()), len(faded), float(fade.max()))
+            xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
+                                    fade if fade.shape[0] else None)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
     if sigma_used.shape[0]:                  # adapted in the filter: report what it used
         batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
-    return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets, batch
+    return PassResult(xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets,
+                      batch, model_prob)
+
+
+def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
+    """(r, r) model-switching generator (1/s): mean time ``sojourn`` (s) in each model, a
+    switch going to each other model alike."""
+    if n_models == 1:
+        return np.zeros((1, 1))
+    lam = np.full((n_models, n_models), 1.0 / (sojourn * (n_models - 1)))
+    np.fill_diagonal(lam, -1.0 / sojourn)
+    return lam
+
+
+def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
+    """The IMM filter and Kim's smoother (``estimation.imm``)."""
+    codes = np.asarray(st.imm_models, dtype=np.int64)
+    lam = imm_generator(len(codes), st.imm_sojourn)
+    out = imm_forward(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
+                      batch.sv, batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
+                      st.reset_inflation, x_lin, codes, lam,
+                      np.full(len(codes), 1.0 / len(codes)))
+    _, _, xm, Pm, mu, omega, nis, dof, rej, _, resets = out
+    xs, Ps, mus = imm_smooth(epoch_t, xm, Pm, mu, omega, q, codes, lam, IMM_PRUNE)
+    return xs, Ps, mus, nis, dof, rej, resets
 
 
 def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
@@ -187,20 +253,20 @@ def constraint_agrees(constrained, free, rho: float) -> bool:
     """Whether the data agree with the maneuver norm ``rho`` the constrained ASKF imposed.
 
     A wrong norm (given 3 % high, say) cannot be met by turning the maneuver and drags the
-    track off the measurements. Both refined results (``_run`` tuples) are compared on the
-    components both used, whitened by the unconstrained fit's sigmas (each fit's own noise
+    track off the measurements. Both refined results are compared on the components the
+    unconstrained fit used (a track dragged off rejects the rest), whitened by its sigmas (each fit's own noise
     re-estimation would otherwise absorb the misfit). The unconstrained smoother's mean squared
     whitened residual is ``1 - h`` with ``h`` the mean ``H P_s H^T / sigma^2`` (the share of
     the noise its state absorbs), so a true constraint, which can at most take that freedom
     away, leaves a misfit up to the noise level ``u_fit + h``; beyond it, plus three standard
     deviations of a mean of ``n`` chi-square(1) terms, the data reject the norm.
     """
-    both = constrained[5] & free[5]
-    sigma = free[9].sigma
-    n = max(int(both.sum()), 1)
-    c_fit = data_misfit(constrained[6], sigma, both)
-    u_fit = data_misfit(free[6], sigma, both)
-    absorbed = float(np.where(both, free[7] / sigma**2, 0.0).sum() / n)
+    used = free.used                   # the constrained fit's own gate may have given up
+    sigma = free.batch.sigma
+    n = max(int(used.sum()), 1)
+    c_fit = data_misfit(constrained.res, sigma, used)
+    u_fit = data_misfit(free.res, sigma, used)
+    absorbed = float(np.where(used, free.hph / sigma**2, 0.0).sum() / n)
     bound = u_fit + absorbed + 3.0 * np.sqrt(2.0 / n)
     if c_fit <= bound:
         log.info("askf: norm %.4g m/s^2 agrees with the data (misfit %.3g, noise level %.3g)",
@@ -296,7 +362,9 @@ def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResul
         used=cat("used"), nis=cat("nis"), dof=cat("dof"), res=cat("res"), hph=cat("hph"),
         q=cat("q"), noise=noise, n_resets=sum(p.n_resets for p in parts),
         spans=tuple((float(p.batch.t[0]), float(p.batch.t[-1])) for p in parts),
-        n_unstarted=unstarted, maneuver_norm=parts[0].maneuver_norm)
+        n_unstarted=unstarted, maneuver_norm=parts[0].maneuver_norm,
+        model_prob=cat("model_prob") if parts[0].model_prob is not None else None,
+        model_names=parts[0].model_names)
 
 
 def fuse_span(batch: MeasurementBatch, rate_hz: float,
@@ -336,7 +404,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     rho = settings.maneuver_norm if settings.askf else None
     first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
     if settings.askf and rho is None:
-        rho = estimate_norm(first[0][grid][:, 6:9])
+        rho = estimate_norm(first.xs[grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
@@ -345,14 +413,13 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         """The refinement passes from the first pass, constrained to ``rho`` when given."""
         out, b, qq, noise = first, batch, q, {}
         for p in range(settings.noise_passes):
-            xs, Ps, em, nis, dof, used, res, hph, _, _ = out
             if settings.adapt_noise:
-                sigma, noise = residual_sigma(b, res, hph, used)
+                sigma, noise = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
-            if settings.process_noise is None:
-                qq = local_process_noise(epoch_t, em, window=settings.q_window)
+            if settings.process_noise is None and out.em is not None:
+                qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
-            out = _run(b, epoch_t, meas_epoch, x0, P0, qq, gate, settings, xs, rho or 0.0)
+            out = _run(b, epoch_t, meas_epoch, x0, P0, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
         return out, qq, noise
 
@@ -361,7 +428,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         free = refine(None, tick=lambda *a, **k: None)
         if not constraint_agrees(out, free[0], rho):
             rho, (out, q, noise) = None, free
-    xs, Ps, em, nis, dof, used, res, hph, resets, batch = out
-    return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
-                        meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,
-                        hph=hph, q=q, noise=noise, n_resets=resets, maneuver_norm=rho)
+    return FusionResult(epoch_t=epoch_t, xs=out.xs, Ps=out.Ps, grid=grid, batch=out.batch,
+                        meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
+                        res=out.res, hph=out.hph, q=q, noise=noise, n_resets=out.resets,
+                        maneuver_norm=rho, model_prob=out.model_prob,
+                        model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models))

@@ -41,9 +41,11 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
+    prob = {} if result.model_prob is None else {
+        name: result.model_prob[result.grid][:, j] for j, name in enumerate(result.model_names)}
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
-                         spans=result.spans)
+                         spans=result.spans, model_prob=prob)
 
 
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,

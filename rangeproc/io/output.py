@@ -28,6 +28,8 @@ def fused_table(tracks: Sequence[TrackEstimate]) -> pd.DataFrame:
         cols["n_sensors"] = tr.n_sensors.astype(np.int64)
         cols.update(sigma_ve=d[:, 3], sigma_vn=d[:, 4], sigma_vu=d[:, 5],
                     cov_en=tr.P[:, 0, 1], cov_eu=tr.P[:, 0, 2], cov_nu=tr.P[:, 1, 2])
+        for name, prob in tr.model_prob.items():        # filter = "imm": one column per model
+            cols[f"p_{name}"] = prob
         frames.append(pd.DataFrame(cols))
     if not frames:
         return pd.DataFrame(columns=["target_id", "time", "lat", "lon", "height",

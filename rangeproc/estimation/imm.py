@@ -1,0 +1,614 @@
+"""Interacting multiple model (IMM) filter and smoother over the same measurement rows (compiled).
+
+The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the common state
+``[p, v, a]`` (range ENU) and mixes them every epoch through a Markov chain of model switches:
+
+1. mixing: ``c_j = sum_i pi_ij mu_i``, ``mu_i|j = pi_ij mu_i / c_j``, each model starts from
+   the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
+2. model-conditioned prediction with the model's own transition and process noise;
+3. the epoch's rows update every model by the same compiled update as the single filter
+   (``forward.row_moments`` + ``forward.gated_update``: whitening, Joseph form, chi-square
+   gating per row, then per component), accumulating each model's innovation likelihood;
+4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination.
+
+Models (codes :data:`CV`, :data:`CA`, :data:`CT`), all on the 9-state layout so that they mix:
+
+* ``CV``: constant velocity, white acceleration of PSD ``q_a = q * 1 s^2`` on position and
+  velocity; the acceleration is reset to zero (variance ``q_a dt``, which keeps it positive
+  definite and lets the mixing hand a CA model a small acceleration);
+* ``CA``: the constant-acceleration white-jerk model of the single filter (PSD ``q``);
+* ``CT``: horizontal coordinated turn at the turn rate of the model's mixed estimate,
+  ``omega = (v_e a_n - v_n a_e) / |v_h|^2`` (bounded by :data:`MAX_TURN_RATE`), exact
+  rotation of the horizontal velocity, acceleration set to the centripetal ``omega J v``;
+  vertical channel constant acceleration; noise as CV horizontally (``q_a``) and CA vertically.
+  The rate is held for the step and stored, so the smoother rebuilds the same transition.
+
+``q`` is the white-jerk PSD of the step (the pipeline's estimate); the other models' PSD derive
+from it (``q_a = q * 1 s^2``: the acceleration variance a white-jerk process gains in one
+second), so one number still sets the dynamics' scale.
+
+Model switches are a continuous-time Markov chain with generator ``Lam`` (r, r) (rows sum to
+zero; rates in 1/s): the step's transition matrix is ``expm(Lam dt)``, so the mixing does not
+depend on the sampling rate. The smoother is Kim's fixed-interval IMM smoother (Kim 1994; Bar-
+Shalom, Li & Kirubarajan 2001 sec. 11.6.8): for each pair (model j at k, model i at k+1) an RTS
+step with model i's transition from model j's filtered estimate, the pair weighted by
+``mu_k|k(j) pi_ji mu_k+1|N(i) / c_i``; smoothed model probabilities are those weights'
+marginals.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from rangeproc.estimation.forward import (
+    EKF,
+    LOG_2PI,
+    MAX_RESET_INFLATION,
+    gated_update,
+    row_moments,
+)
+from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+from rangeproc.models.measurement import N_COMPONENTS
+from rangeproc.models.motion import N_KINEMATIC
+from rangeproc.settings import IMM_MODELS
+
+CV, CA, CT = 0, 1, 2
+#: Names of the model codes (config ``imm_models`` and the fused.parquet columns ``p_<name>``).
+MODEL_NAMES = IMM_MODELS
+#: Largest turn rate (rad/s) the CT model uses (about 29 deg/s).
+MAX_TURN_RATE = 0.5
+#: Horizontal speed (m/s) below which the CT model does not turn.
+MIN_TURN_SPEED = 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def turn_rate(x: np.ndarray) -> float:
+    """``omega = (v_e a_n - v_n a_e) / |v_h|^2`` (rad/s) of state ``x``, bounded."""
+    ve, vn, ae, an = x[3], x[4], x[6], x[7]
+    v2 = ve * ve + vn * vn
+    if v2 < MIN_TURN_SPEED * MIN_TURN_SPEED:
+        return 0.0
+    w = (ve * an - vn * ae) / v2
+    return min(max(w, -MAX_TURN_RATE), MAX_TURN_RATE)
+
+
+@njit(cache=True, error_model="numpy")
+def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
+                   Q: np.ndarray) -> None:
+    """Transition ``F`` (n, n) and process noise ``Q`` (n, n) of one model over ``dt`` (s).
+
+    States beyond the ninth are constants (F = I, no noise). ``q``: white-jerk PSD (m^2/s^5);
+    ``omega``: the CT turn rate (rad/s), ignored by the others.
+    """
+    n = F.shape[0]
+    F[:, :] = 0.0
+    Q[:, :] = 0.0
+    for i in range(n):
+        F[i, i] = 1.0
+    dt2 = dt * dt
+    dt3 = dt2 * dt
+    qa = q * 1.0                                          # white-acceleration PSD, m^2/s^3
+    for ax in range(3):
+        p, v, a = ax, 3 + ax, 6 + ax
+        ca_axis = code == CA or (code == CT and ax == 2)
+        if ca_axis:                                        # white jerk
+            F[p, v] = dt
+            F[p, a] = 0.5 * dt2
+            F[v, a] = dt
+            Q[p, p] = q * dt3 * dt2 / 20.0
+            Q[p, v] = Q[v, p] = q * dt2 * dt2 / 8.0
+            Q[p, a] = Q[a, p] = q * dt3 / 6.0
+            Q[v, v] = q * dt3 / 3.0
+            Q[v, a] = Q[a, v] = q * dt2 / 2.0
+            Q[a, a] = q * dt
+        else:                                              # white acceleration, a reset
+            Q[p, p] = qa * dt3 / 3.0
+            Q[p, v] = Q[v, p] = qa * dt2 / 2.0
+            Q[v, v] = qa * dt
+            Q[a, a] = qa * dt
+            F[a, a] = 0.0
+            if code == CV:
+                F[p, v] = dt
+    if code == CT:                                         # horizontal coordinated turn
+        w = omega
+        s = math.sin(w * dt)
+        c = math.cos(w * dt)
+        if abs(w) > 1e-9:
+            sw = s / w
+            cw = (1.0 - c) / w
+        else:
+            sw = dt
+            cw = 0.5 * w * dt2
+        F[0, 3], F[0, 4] = sw, -cw                         # p_h += (s/w) v - ((1-c)/w) J' v
+        F[1, 3], F[1, 4] = cw, sw
+        F[3, 3], F[3, 4] = c, -s                           # v_h rotated by w dt
+        F[4, 3], F[4, 4] = s, c
+        F[6, 3], F[6, 4] = -w * s, -w * c                  # a_h = w J v_h (centripetal)
+        F[7, 3], F[7, 4] = w * c, -w * s
+
+
+@njit(cache=True, error_model="numpy")
+def switch_matrix(Lam: np.ndarray, dt: float, out: np.ndarray, work: np.ndarray) -> None:
+    """``out = expm(Lam dt)`` (r, r) by scaling and squaring a 12-term Taylor series; rows are
+    renormalised to sum to one (a stochastic matrix up to rounding). ``work`` (2, r, r)."""
+    r = Lam.shape[0]
+    norm = 0.0
+    for i in range(r):
+        acc = 0.0
+        for j in range(r):
+            acc += abs(Lam[i, j]) * dt
+        norm = max(norm, acc)
+    sq = 0
+    while norm > 0.5:
+        norm *= 0.5
+        sq += 1
+    scale = dt / (2.0 ** sq)
+    term = work[0]
+    tmp = work[1]
+    for i in range(r):
+        for j in range(r):
+            term[i, j] = 1.0 if i == j else 0.0
+            out[i, j] = term[i, j]
+    for k in range(1, 13):                                 # out = sum (A^k / k!)
+        for i in range(r):
+            for j in range(r):
+                acc = 0.0
+                for l in range(r):
+                    acc += term[i, l] * Lam[l, j] * scale
+                tmp[i, j] = acc / k
+        for i in range(r):
+            for j in range(r):
+                term[i, j] = tmp[i, j]
+                out[i, j] += term[i, j]
+    for _ in range(sq):
+        for i in range(r):
+            for j in range(r):
+                acc = 0.0
+                for l in range(r):
+                    acc += out[i, l] * out[l, j]
+                tmp[i, j] = acc
+        for i in range(r):
+            for j in range(r):
+                out[i, j] = tmp[i, j]
+    for i in range(r):
+        acc = 0.0
+        for j in range(r):
+            out[i, j] = max(out[i, j], 0.0)
+            acc += out[i, j]
+        for j in range(r):
+            out[i, j] /= acc
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
+             T: np.ndarray) -> None:
+    """``x <- F x``, ``P <- F P F^T + Q`` (dense, in place; ``xt`` (n,), ``T`` (n, n) work)."""
+    n = x.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += F[i, j] * x[j]
+        xt[i] = acc
+    for i in range(n):
+        x[i] = xt[i]
+    for i in range(n):                                     # T = F P
+        for j in range(n):
+            acc = 0.0
+            for l in range(n):
+                if F[i, l] != 0.0:
+                    acc += F[i, l] * P[l, j]
+            T[i, j] = acc
+    for i in range(n):                                     # P = T F^T + Q
+        for j in range(i + 1):
+            acc = Q[i, j]
+            for l in range(n):
+                if F[j, l] != 0.0:
+                    acc += T[i, l] * F[j, l]
+            P[i, j] = acc
+            P[j, i] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
+                z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
+                Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
+                q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
+                reset_inflation: float, x_lin: np.ndarray, codes: np.ndarray,
+                Lam: np.ndarray, mu0: np.ndarray):
+    """IMM filter over all epochs (module docstring), EKF updates.
+
+    Arguments as ``forward.kalman_forward`` (rows, prior, ``q_steps``, gate, divergence guard,
+    ``x_lin`` linearisation states or zero rows) plus ``codes`` (r,) model codes, ``Lam``
+    (r, r) switching generator (1/s) and ``mu0`` (r,) initial model probabilities.
+
+    Returns:
+        xf (E, n) combined filtered states, Pf (E, n(n+1)/2) packed; xm (E, r, n), Pm
+        (E, r, n(n+1)/2) model-conditioned filtered states and covariances, mu (E, r) model
+        probabilities, omega (E, r) turn rate each model used on the step ending at each
+        epoch; nis (N,), dof (N,), rejected (N,) bit masks (under the model most probable
+        before the epoch's update), loglik, n_resets.
+    """
+    E = epoch_t.shape[0]
+    N = meas_epoch.shape[0]
+    n = x0.shape[0]
+    r = codes.shape[0]
+    npk = n * (n + 1) // 2
+    xf = np.empty((E, n))
+    Pf = np.empty((E, npk))
+    xm = np.empty((E, r, n))
+    Pm = np.empty((E, r, npk))
+    mu_out = np.empty((E, r))
+    omega = np.zeros((E, r))
+    nis = np.full(N, np.nan)
+    dof = np.zeros(N, dtype=np.int64)
+    rejected = np.zeros(N, dtype=np.int64)
+    X = np.empty((r, n))
+    PP = np.empty((r, n, n))
+    for j in range(r):
+        X[j] = x0
+        PP[j] = P0
+    mu = mu0.copy()
+    Pi = np.empty((r, r))
+    swork = np.empty((2, r, r))
+    cbar = np.empty(r)
+    X0 = np.empty((r, n))
+    P0m = np.empty((r, n, n))
+    ll = np.empty(r)
+    F = np.empty((n, n))
+    Qm = np.empty((n, n))
+    xt = np.empty(n)
+    T = np.empty((n, n))
+    dx = np.empty(n)
+    h = np.empty(N_COMPONENTS)
+    H = np.zeros((N_COMPONENTS, n))
+    y6 = np.empty(N_COMPONENTS)
+    y = np.empty(N_COMPONENTS)
+    idx = np.empty(N_COMPONENTS, dtype=np.int64)
+    sel = np.empty(N_COMPONENTS, dtype=np.int64)
+    sig = np.empty(N_COMPONENTS)
+    C = np.empty((N_COMPONENTS, n))
+    Z = np.empty((N_COMPONENTS, N_COMPONENTS))
+    Hs = np.zeros((N_COMPONENTS, 6))
+    yw = np.empty(N_COMPONENTS)
+    HP = np.empty((N_COMPONENTS, n))
+    S = np.empty((N_COMPONENTS, N_COMPONENTS))
+    Kt = np.empty((N_COMPONENTS, n))
+    AP = np.empty((n, n))
+    APHt = np.empty((n, N_COMPONENTS))
+    sdiag = np.empty(N_COMPONENTS)
+    ew = np.empty(N_COMPONENTS)
+    Sinv = np.empty((N_COMPONENTS, N_COMPONENTS))
+    L = np.empty((n, n))
+    Zs = np.empty((2 * n + 1, N_COMPONENTS))
+    xsig = np.empty(n)
+    ukf = np.zeros(3)
+    use_lin = x_lin.shape[0] == E
+    consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
+    n_resets = 0
+    last_reset = -1
+    loglik = 0.0
+    i = 0
+    for k in range(E):
+        dt = epoch_t[k] - epoch_t[k - 1] if k > 0 else 0.0
+        if k > 0:
+            switch_matrix(Lam, dt, Pi, swork)
+            for j in range(r):                              # 1. mixing
+                acc = 0.0
+                for a in range(r):
+                    acc += Pi[a, j] * mu[a]
+                cbar[j] = max(acc, 1e-300)
+            for j in range(r):
+                for b in range(n):
+                    acc = 0.0
+                    for a in range(r):
+                        acc += Pi[a, j] * mu[a] / cbar[j] * X[a, b]
+                    X0[j, b] = acc
+                for b in range(n):
+                    for c in range(n):
+                        P0m[j, b, c] = 0.0
+                for a in range(r):
+                    w = Pi[a, j] * mu[a] / cbar[j]
+                    if w == 0.0:
+                        continue
+                    for b in range(n):
+                        dx[b] = X[a, b] - X0[j, b]
+                    for b in range(n):
+                        for c in range(n):
+                            P0m[j, b, c] += w * (PP[a, b, c] + dx[b] * dx[c])
+            for j in range(r):                              # 2. model-conditioned prediction
+                X[j] = X0[j]
+                PP[j] = P0m[j]
+                w = turn_rate(X[j]) if codes[j] == CT else 0.0
+                omega[k, j] = w
+                model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
+                _predict(F, Qm, X[j], PP[j], xt, T)
+        else:
+            for j in range(r):
+                cbar[j] = mu[j]
+        best = 0
+        for j in range(r):
+            ll[j] = 0.0
+            if cbar[j] > cbar[best]:
+                best = j
+        while i < N and meas_epoch[i] == k:                 # 3. the epoch's rows, per model
+            m = 0
+            for c in range(N_COMPONENTS):
+                if not math.isnan(z[i, c]) and sigma[i, c] > 0.0:
+                    idx[m] = c
+                    m += 1
+            dof[i] = m
+            if m == 0:
+                i += 1
+                continue
+            for j in range(r):
+                row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
+                            x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L, Zs,
+                            xsig, h, H, y6, y, C, Z, Hs)
+                for a in range(m):
+                    sel[a] = a
+                    sig[a] = sigma[i, idx[a]]
+                val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, X[j], PP[j], gate,
+                                               True, yw, HP, S, Kt, AP, APHt, sdiag, False,
+                                               ew, Sinv)
+                mask = 0
+                if not ok and m > 1 and math.isfinite(val):
+                    mk = 0
+                    for a in range(m):
+                        if yw[a] * yw[a] / sdiag[a] <= gate[1]:
+                            sel[mk] = a
+                            sig[mk] = sigma[i, idx[a]]
+                            mk += 1
+                        else:
+                            mask |= 1 << idx[a]
+                    if 0 < mk < m:
+                        val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, X[j],
+                                                          PP[j], gate, True, yw, HP, S, Kt, AP,
+                                                          APHt, sdiag, False, ew, Sinv)
+                        if ok2:
+                            ok = True
+                            ll[j] -= 0.5 * (val2 + logdet2 + mk * LOG_2PI
+                                            + (m - mk) * gate[1])
+                    if not ok:
+                        mask = 0
+                if ok and mask == 0:
+                    ll[j] -= 0.5 * (val + logdet + m * LOG_2PI)
+                if not ok:
+                    for a in range(m):
+                        mask |= 1 << idx[a]
+                    ll[j] -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
+                if j == best:
+                    nis[i] = val
+                    rejected[i] = mask
+            all_rejected = True                             # divergence guard, as the filter
+            for a in range(m):
+                if (rejected[i] >> idx[a]) & 1 == 0:
+                    all_rejected = False
+            if not all_rejected:
+                consecutive[sensor[i]] = 0
+            else:
+                consecutive[sensor[i]] += 1
+                if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
+                        and last_reset != k:
+                    factor = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
+                                 MAX_RESET_INFLATION)
+                    for j in range(r):
+                        for a in range(min(n, N_KINEMATIC)):
+                            for b in range(min(n, N_KINEMATIC)):
+                                PP[j, a, b] *= factor
+                    consecutive[:] = 0
+                    n_resets += 1
+                    last_reset = k
+            i += 1
+        top = -np.inf                                       # 4. model probabilities
+        for j in range(r):
+            ll[j] += math.log(cbar[j])
+            top = max(top, ll[j])
+        tot = 0.0
+        for j in range(r):
+            mu[j] = math.exp(ll[j] - top)
+            tot += mu[j]
+        for j in range(r):
+            mu[j] /= tot
+        loglik += top + math.log(tot)
+        for b in range(n):                                  # combination
+            acc = 0.0
+            for j in range(r):
+                acc += mu[j] * X[j, b]
+            xt[b] = acc
+            if not math.isfinite(acc):
+                raise FloatingPointError("non-finite state in the IMM filter")
+        for b in range(n):
+            for c in range(n):
+                T[b, c] = 0.0
+        for j in range(r):
+            for b in range(n):
+                dx[b] = X[j, b] - xt[b]
+            for b in range(n):
+                for c in range(n):
+                    T[b, c] += mu[j] * (PP[j, b, c] + dx[b] * dx[c])
+        xf[k] = xt
+        pack(T, Pf[k])
+        mu_out[k] = mu
+        for j in range(r):
+            xm[k, j] = X[j]
+            pack(PP[j], Pm[k, j])
+    return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
+
+
+@njit(cache=True, error_model="numpy")
+def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarray,
+               omega: np.ndarray, q_steps: np.ndarray, codes: np.ndarray, Lam: np.ndarray,
+               prune: float):
+    """Kim's fixed-interval IMM smoother over :func:`imm_forward`'s model-conditioned output.
+
+    A pair (j at k, i at k+1) whose weight is below ``prune`` times the total weight of model
+    j's pairs is skipped: it would move model j's smoothed mixture by that fraction of the
+    pair means' difference (a model switch between two epochs a fraction of a second apart
+    is rare, so most cross pairs are negligible except around a manoeuvre's onset).
+
+    Returns:
+        xs (E, n), Ps (E, n(n+1)/2) the combined smoothed states and packed covariances, and
+        mus (E, r) the smoothed model probabilities.
+    """
+    E, r, n = xm.shape
+    npk = n * (n + 1) // 2
+    xs = np.empty((E, n))
+    Ps = np.empty((E, npk))
+    mus = np.empty((E, r))
+    Xn = np.empty((r, n))                                   # smoothed per model at k+1
+    Pn = np.empty((r, n, n))
+    Xk = np.empty((r, n))
+    Pk = np.empty((r, n, n))
+    Xp = np.empty((r, r, n))                                # pair means at k
+    Pp = np.empty((r, r, n, n))
+    W = np.empty((r, r))
+    Pi = np.empty((r, r))
+    swork = np.empty((2, r, r))
+    cbar = np.empty(r)
+    F = np.empty((n, n))
+    Qm = np.empty((n, n))
+    Pf = np.empty((n, n))
+    Ppred = np.empty((n, n))
+    xpred = np.empty(n)
+    FP = np.empty((n, n))
+    Ct = np.empty((n, n))
+    D = np.empty((n, n))
+    M = np.empty((n, n))
+    dx = np.empty(n)
+    xt = np.empty(n)
+    T = np.empty((n, n))
+    for i in range(r):
+        Xn[i] = xm[E - 1, i]
+        unpack(Pm[E - 1, i], Pn[i])
+    for i in range(r):
+        mus[E - 1, i] = mu[E - 1, i]
+    _combine(Xn, Pn, mus[E - 1], xs[E - 1], T, dx)
+    pack(T, Ps[E - 1])
+    for k in range(E - 2, -1, -1):
+        dt = epoch_t[k + 1] - epoch_t[k]
+        switch_matrix(Lam, dt, Pi, swork)
+        for i in range(r):
+            acc = 0.0
+            for j in range(r):
+                acc += Pi[j, i] * mu[k, j]
+            cbar[i] = max(acc, 1e-300)
+        for j in range(r):
+            row = 0.0
+            for i in range(r):
+                W[j, i] = mu[k, j] * Pi[j, i] * mus[k + 1, i] / cbar[i]
+                row += W[j, i]
+            for i in range(r):
+                if W[j, i] < prune * row:
+                    W[j, i] = 0.0
+        for j in range(r):
+            unpack(Pm[k, j], Pf)
+            for i in range(r):
+                if W[j, i] == 0.0:
+                    continue
+                model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
+                for a in range(n):
+                    xpred[a] = xm[k, j, a]
+                    for b in range(n):
+                        Ppred[a, b] = Pf[a, b]
+                _predict(F, Qm, xpred, Ppred, xt, T)
+                for a in range(n):                          # FP = F P_f (F sparse)
+                    for b in range(n):
+                        FP[a, b] = 0.0
+                    for l in range(n):
+                        f = F[a, l]
+                        if f != 0.0:
+                            for b in range(n):
+                                FP[a, b] += f * Pf[l, b]
+                    for b in range(n):
+                        Ct[a, b] = FP[a, b]
+                if not cholesky_inplace(Ppred, n):
+                    raise FloatingPointError("predicted covariance not positive definite in "
+                                             "the IMM smoother")
+                chol_solve_inplace(Ppred, n, Ct, n)         # C^T = P_pred^-1 F P_f
+                for a in range(n):
+                    dx[a] = Xn[i, a] - xpred[a]
+                for a in range(n):                          # x_ji = x_f + C (x_s' - x_pred)
+                    acc = xm[k, j, a]
+                    for b in range(n):
+                        acc += Ct[b, a] * dx[b]
+                    Xp[j, i, a] = acc
+                # P_ji = P_f + C (P_s' - P_pred) C^T = P_f + C P_s' C^T - C F P_f
+                for a in range(n):                          # D = P_s' C^T... as (C P_s')^T
+                    for b in range(n):
+                        acc = 0.0
+                        for l in range(n):
+                            acc += Ct[l, a] * Pn[i, l, b]
+                        D[a, b] = acc                       # D = C P_s'
+                for a in range(n):
+                    for b in range(a + 1):
+                        acc = Pf[a, b]
+                        for l in range(n):
+                            acc += D[a, l] * Ct[l, b] - Ct[l, a] * FP[l, b]
+                        M[a, b] = acc
+                        M[b, a] = acc
+                Pp[j, i] = M
+        for j in range(r):
+            tot = 0.0
+            for i in range(r):
+                tot += W[j, i]
+            mus[k, j] = tot
+        norm = 0.0
+        for j in range(r):
+            norm += mus[k, j]
+        for j in range(r):
+            mus[k, j] /= norm
+            tot = 0.0
+            for i in range(r):
+                tot += W[j, i]
+            if tot <= 0.0:                                  # no weight: keep the filtered
+                Xk[j] = xm[k, j]
+                unpack(Pm[k, j], Pk[j])
+                continue
+            for a in range(n):
+                acc = 0.0
+                for i in range(r):
+                    acc += W[j, i] / tot * Xp[j, i, a]
+                Xk[j, a] = acc
+            for a in range(n):
+                for b in range(n):
+                    Pk[j, a, b] = 0.0
+            for i in range(r):
+                if W[j, i] == 0.0:
+                    continue
+                w = W[j, i] / tot
+                for a in range(n):
+                    dx[a] = Xp[j, i, a] - Xk[j, a]
+                for a in range(n):
+                    for b in range(n):
+                        Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
+        _combine(Xk, Pk, mus[k], xs[k], T, dx)
+        pack(T, Ps[k])
+        for j in range(r):
+            Xn[j] = Xk[j]
+            Pn[j] = Pk[j]
+    return xs, Ps, mus
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
+             dx: np.ndarray) -> None:
+    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``."""
+    r, n = X.shape
+    for a in range(n):
+        acc = 0.0
+        for j in range(r):
+            acc += w[j] * X[j, a]
+        x[a] = acc
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.0
+    for j in range(r):
+        if w[j] == 0.0:
+            continue
+        for a in range(n):
+            dx[a] = X[j, a] - x[a]
+        for a in range(n):
+            for b in range(n):
+                out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
