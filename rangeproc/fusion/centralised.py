@@ -255,10 +255,11 @@ def constraint_agrees(constrained, free, rho: float) -> bool:
     A wrong norm (given 3 % high, say) cannot be met by turning the maneuver and drags the
     track off the measurements. Both refined results are compared on the components the
     unconstrained fit used (a track dragged off rejects the rest), whitened by its sigmas
-    (each fit's own noise re-estimation would otherwise absorb the misfit). The unconstrained
-    smoother's mean squared whitened residual is ``1 - h`` with ``h`` the mean ``H P_s H^T / sigma^2`` (the share of
-    the noise its state absorbs), so a true constraint, which can at most take that freedom
-    away, leaves a misfit up to the noise level ``u_fit + h``; beyond it, plus three standard
+    (each fit's own noise re-estimation would otherwise absorb the misfit). The
+    unconstrained smoother's mean squared whitened residual is ``1 - h``, ``h`` the mean
+    ``H P_s H^T / sigma^2`` (the share of the noise its state absorbs), so a true constraint,
+    which can at most take that freedom away, leaves a misfit up to the noise level
+    ``u_fit + h``; beyond it, plus three standard
     deviations of a mean of ``n`` chi-square(1) terms, the data reject the norm.
     """
     used = free.used                   # the constrained fit's own gate may have given up
