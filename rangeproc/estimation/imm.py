@@ -446,7 +446,9 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     A pair (j at k, i at k+1) whose weight is below ``prune`` times the total weight of model
     j's pairs is skipped: it would move model j's smoothed mixture by that fraction of the
     pair means' difference (a model switch between two epochs a fraction of a second apart
-    is rare, so most cross pairs are negligible except around a manoeuvre's onset).
+    is rare, so most cross pairs are negligible except around a manoeuvre's onset). A model
+    whose smoothed probability is below ``prune`` keeps its filtered estimate: it weighs
+    that little in the combination and in the pairs of the step before.
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) the combined smoothed states and packed covariances, and
@@ -475,9 +477,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     FP = np.empty((n, n))
     Ct = np.empty((n, n))
     D = np.empty((n, n))
-    M = np.empty((n, n))
     dx = np.empty(n)
-    xt = np.empty(n)
     T = np.empty((n, n))
     for i in range(r):
         Xn[i] = xm[E - 1, i]
@@ -494,13 +494,18 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
             for j in range(r):
                 acc += Pi[j, i] * mu[k, j]
             cbar[i] = max(acc, 1e-300)
+        total = 0.0
         for j in range(r):
             row = 0.0
             for i in range(r):
                 W[j, i] = mu[k, j] * Pi[j, i] * mus[k + 1, i] / cbar[i]
                 row += W[j, i]
-            for i in range(r):
-                if W[j, i] < prune * row:
+            mus[k, j] = row
+            total += row
+        for j in range(r):
+            mus[k, j] /= total
+            for i in range(r):                              # negligible pairs and models
+                if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
                     W[j, i] = 0.0
         for j in range(r):
             unpack(Pm[k, j], Pf)
@@ -508,57 +513,9 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
                 if W[j, i] == 0.0:
                     continue
                 model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
-                for a in range(n):
-                    xpred[a] = xm[k, j, a]
-                    for b in range(n):
-                        Ppred[a, b] = Pf[a, b]
-                _predict(F, Qm, xpred, Ppred, xt, T)
-                for a in range(n):                          # FP = F P_f (F sparse)
-                    for b in range(n):
-                        FP[a, b] = 0.0
-                    for l in range(n):
-                        f = F[a, l]
-                        if f != 0.0:
-                            for b in range(n):
-                                FP[a, b] += f * Pf[l, b]
-                    for b in range(n):
-                        Ct[a, b] = FP[a, b]
-                if not cholesky_inplace(Ppred, n):
-                    raise FloatingPointError("predicted covariance not positive definite in "
-                                             "the IMM smoother")
-                chol_solve_inplace(Ppred, n, Ct, n)         # C^T = P_pred^-1 F P_f
-                for a in range(n):
-                    dx[a] = Xn[i, a] - xpred[a]
-                for a in range(n):                          # x_ji = x_f + C (x_s' - x_pred)
-                    acc = xm[k, j, a]
-                    for b in range(n):
-                        acc += Ct[b, a] * dx[b]
-                    Xp[j, i, a] = acc
-                # P_ji = P_f + C (P_s' - P_pred) C^T = P_f + C P_s' C^T - C F P_f
-                for a in range(n):                          # D = P_s' C^T... as (C P_s')^T
-                    for b in range(n):
-                        acc = 0.0
-                        for l in range(n):
-                            acc += Ct[l, a] * Pn[i, l, b]
-                        D[a, b] = acc                       # D = C P_s'
-                for a in range(n):
-                    for b in range(a + 1):
-                        acc = Pf[a, b]
-                        for l in range(n):
-                            acc += D[a, l] * Ct[l, b] - Ct[l, a] * FP[l, b]
-                        M[a, b] = acc
-                        M[b, a] = acc
-                Pp[j, i] = M
+                _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
+                           dx, Xp[j, i], Pp[j, i])
         for j in range(r):
-            tot = 0.0
-            for i in range(r):
-                tot += W[j, i]
-            mus[k, j] = tot
-        norm = 0.0
-        for j in range(r):
-            norm += mus[k, j]
-        for j in range(r):
-            mus[k, j] /= norm
             tot = 0.0
             for i in range(r):
                 tot += W[j, i]
@@ -589,6 +546,74 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
             Xn[j] = Xk[j]
             Pn[j] = Pk[j]
     return xs, Ps, mus
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
+               x_next: np.ndarray, P_next: np.ndarray, x_pred: np.ndarray, P_pred: np.ndarray,
+               FP: np.ndarray, C: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
+               x_out: np.ndarray, P_out: np.ndarray) -> None:
+    """One RTS step of a model pair: from the filtered ``x_f, P_f`` through ``F, Q`` to the
+    smoothed ``x_next, P_next`` of the next epoch:
+
+        C = P_f F^T P_pred^-1,  x = x_f + C (x_next - F x_f),
+        P = P_f + C (P_next - P_pred) C^T,  P_pred = F P_f F^T + Q.
+
+    Every product runs its innermost loop over contiguous rows; ``F`` is sparse (at most three
+    non-zeros a row) and skipped where zero. Work arrays: ``x_pred, dx`` (n,), the rest (n, n).
+    """
+    n = x_f.shape[0]
+    for a in range(n):                                      # FP = F P_f, x_pred = F x_f
+        acc = 0.0
+        for b in range(n):
+            FP[a, b] = 0.0
+        for l in range(n):
+            f = F[a, l]
+            if f != 0.0:
+                acc += f * x_f[l]
+                for b in range(n):
+                    FP[a, b] += f * P_f[l, b]
+        x_pred[a] = acc
+    for a in range(n):                                      # P_pred = FP F^T + Q
+        for b in range(a + 1):
+            acc = Q[a, b]
+            for l in range(n):
+                f = F[b, l]
+                if f != 0.0:
+                    acc += FP[a, l] * f
+            P_pred[a, b] = acc
+            P_pred[b, a] = acc
+    for a in range(n):                                      # E = P_next - P_pred
+        for b in range(n):
+            E[a, b] = P_next[a, b] - P_pred[a, b]
+    if not cholesky_inplace(P_pred, n):
+        raise FloatingPointError("predicted covariance not positive definite in the IMM "
+                                 "smoother")
+    chol_solve_inplace(P_pred, n, FP, n)                    # FP <- P_pred^-1 F P_f = C^T
+    for a in range(n):
+        for b in range(n):
+            C[a, b] = FP[b, a]
+    for a in range(n):
+        dx[a] = x_next[a] - x_pred[a]
+    for a in range(n):                                      # x = x_f + C dx
+        acc = x_f[a]
+        for b in range(n):
+            acc += C[a, b] * dx[b]
+        x_out[a] = acc
+    for a in range(n):                                      # G = C E
+        for b in range(n):
+            G[a, b] = 0.0
+        for l in range(n):
+            c = C[a, l]
+            for b in range(n):
+                G[a, b] += c * E[l, b]
+    for a in range(n):                                      # P = P_f + G C^T
+        for b in range(a + 1):
+            acc = P_f[a, b]
+            for l in range(n):
+                acc += G[a, l] * C[b, l]
+            P_out[a, b] = acc
+            P_out[b, a] = acc
 
 
 @njit(cache=True, error_model="numpy", inline="always")
