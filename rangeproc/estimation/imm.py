@@ -447,8 +447,10 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     j's pairs is skipped: it would move model j's smoothed mixture by that fraction of the
     pair means' difference (a model switch between two epochs a fraction of a second apart
     is rare, so most cross pairs are negligible except around a manoeuvre's onset). A model
-    whose smoothed probability is below ``prune`` keeps its filtered estimate: it weighs
-    that little in the combination and in the pairs of the step before.
+    whose smoothed probability is below ``prune`` is left out of the combination and carries
+    the combined smoothed estimate back to the step before (not its own filtered one: the
+    chain of a model that matters again earlier in the flight must not restart from its
+    filter).
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) the combined smoothed states and packed covariances, and
@@ -463,6 +465,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     Pn = np.empty((r, n, n))
     Xk = np.empty((r, n))
     Pk = np.empty((r, n, n))
+    wc = np.empty(r)                                        # combination weights
     Xp = np.empty((r, r, n))                                # pair means at k
     Pp = np.empty((r, r, n, n))
     W = np.empty((r, r))
@@ -515,13 +518,14 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
                 model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
                 _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
                            dx, Xp[j, i], Pp[j, i])
+        wsum = 0.0
         for j in range(r):
             tot = 0.0
             for i in range(r):
                 tot += W[j, i]
-            if tot <= 0.0:                                  # no weight: keep the filtered
-                Xk[j] = xm[k, j]
-                unpack(Pm[k, j], Pk[j])
+            wc[j] = mus[k, j] if tot > 0.0 else 0.0
+            wsum += wc[j]
+            if tot <= 0.0:                                  # skipped: filled in below
                 continue
             for a in range(n):
                 acc = 0.0
@@ -540,11 +544,17 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
                 for a in range(n):
                     for b in range(n):
                         Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
-        _combine(Xk, Pk, mus[k], xs[k], T, dx)
+        for j in range(r):
+            wc[j] /= wsum
+        _combine(Xk, Pk, wc, xs[k], T, dx)
         pack(T, Ps[k])
         for j in range(r):
-            Xn[j] = Xk[j]
-            Pn[j] = Pk[j]
+            if wc[j] > 0.0:
+                Xn[j] = Xk[j]
+                Pn[j] = Pk[j]
+            else:          # a skipped model carries the combined smoothed estimate back: its
+                Xn[j] = xs[k]                # chain must not restart from its filter where
+                Pn[j] = T                    # it matters again earlier in the flight
     return xs, Ps, mus
 
 

@@ -35,6 +35,7 @@ from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, kalman_forward
 from rangeproc.estimation.imm import MODEL_NAMES, imm_forward, imm_smooth
+from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
@@ -48,6 +49,9 @@ log = logging.getLogger(__name__)
 #: moves that model's smoothed mean by under 1 % of the pairs' difference, itself small over
 #: one step; it halves the smoother's cost where the models share the probability.
 IMM_PRUNE = 1e-2
+#: Variance factor on the previous pass's smoothed first-epoch covariance that starts the
+#: IMM in a refinement pass (``imm_start``).
+IMM_START_WIDENING = 10.0
 
 
 
@@ -76,10 +80,11 @@ class EstimatorSettings:
         ``maneuver_norm`` (m/s^2) when given, else estimated from the first pass's smoothed
         accelerations (``estimation.constraint.estimate_norm``); without a usable norm the
         unconstrained ASKF (the constant-acceleration EKF).
-    imm_models: model codes of the IMM (``estimation.imm``: CV, CA, CT); empty = no IMM. The
-        IMM uses EKF updates and keeps the process noise of the first pass (its models carry
-        the dynamics the local EM would otherwise follow). imm_sojourn: mean time (s) in a
-        model before a switch.
+    imm_models: model codes of the IMM (``estimation.imm``: CV, CA, CT); empty = no IMM. Its
+        first pass is the EKF; the refinement passes run the IMM (EKF updates) from that
+        pass's smoothed first state (``imm_start``) with its process noise (the models carry
+        the dynamics the local EM would otherwise follow); ``noise_passes = 0`` leaves the
+        EKF. imm_sojourn: mean time (s) in a model before a switch.
     stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
         alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
     """
@@ -232,10 +237,31 @@ def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
     return lam
 
 
+def imm_start(first: PassResult) -> tuple[np.ndarray, np.ndarray]:
+    """The IMM's start in the refinement passes: the first pass's (the constant-acceleration
+    EKF and RTS smoother) smoothed first state, its covariance widened
+    :data:`IMM_START_WIDENING` times.
+
+    From the first fixes' start (wide acceleration prior) every model is still learning the
+    motion for seconds and the simplest wins on Occam's razor (a 3 g thrust looks like
+    constant velocity to the likelihoods), and Kim's smoother carries model probabilities
+    backward but does not re-weigh the models with the smoothed states: the transient would
+    stay, and the models' backward extrapolation through it went hundreds of metres off
+    (seed 004's experiment). Started from what the whole flight says about the first epoch,
+    the right model explains the data from the first fix. The widening keeps the data that
+    shaped that covariance from being counted twice at more than a tenth of their weight.
+    """
+    n = first.xs.shape[1]
+    P = np.empty((n, n))
+    unpack(first.Ps[0], P)
+    return first.xs[0].copy(), IMM_START_WIDENING * P
+
+
 def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
     """The IMM filter and Kim's smoother (``estimation.imm``)."""
     codes = np.asarray(st.imm_models, dtype=np.int64)
     lam = imm_generator(len(codes), st.imm_sojourn)
+
     out = imm_forward(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
                       batch.sv, batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
                       st.reset_inflation, x_lin, codes, lam,
@@ -405,7 +431,9 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
     rho = settings.maneuver_norm if settings.askf else None
-    first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin)
+    # the first pass of the IMM is the constant-acceleration EKF: it starts the IMM's models
+    first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate,
+                 replace(settings, imm_models=()) if settings.imm_models else settings, x_lin)
     if settings.askf and rho is None:
         rho = estimate_norm(first.xs[grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
@@ -422,7 +450,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             if settings.process_noise is None and out.em is not None:
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
-            out = _run(b, epoch_t, meas_epoch, x0, P0, qq, gate, settings, out.xs, rho or 0.0)
+            start = imm_start(first) if settings.imm_models else (x0, P0)
+            out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
         return out, qq, noise
 
