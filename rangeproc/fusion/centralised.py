@@ -49,8 +49,8 @@ log = logging.getLogger(__name__)
 #: moves that model's smoothed mean by under 1 % of the pairs' difference, itself small over
 #: one step; it halves the smoother's cost where the models share the probability.
 IMM_PRUNE = 1e-2
-#: Variance factor on the previous pass's smoothed first-epoch covariance that starts the
-#: IMM in a refinement pass (``imm_start``).
+#: Variance factor on the first pass's smoothed first-epoch acceleration covariance that
+#: starts the IMM's refinement passes (``imm_start``).
 IMM_START_WIDENING = 10.0
 
 
@@ -237,24 +237,30 @@ def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
     return lam
 
 
-def imm_start(first: PassResult) -> tuple[np.ndarray, np.ndarray]:
-    """The IMM's start in the refinement passes: the first pass's (the constant-acceleration
-    EKF and RTS smoother) smoothed first state, its covariance widened
+def imm_start(first: PassResult, x0: np.ndarray, P0: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The IMM's start in the refinement passes: the span's own prior ``x0, P0`` for position
+    and velocity, the acceleration as the first pass (the constant-acceleration EKF and RTS
+    smoother) estimated it at the first epoch, its variance widened
     :data:`IMM_START_WIDENING` times.
 
-    From the first fixes' start (wide acceleration prior) every model is still learning the
-    motion for seconds and the simplest wins on Occam's razor (a 3 g thrust looks like
-    constant velocity to the likelihoods), and Kim's smoother carries model probabilities
-    backward but does not re-weigh the models with the smoothed states: the transient would
-    stay, and the models' backward extrapolation through it went hundreds of metres off
-    (seed 004's experiment). Started from what the whole flight says about the first epoch,
-    the right model explains the data from the first fix. The widening keeps the data that
-    shaped that covariance from being counted twice at more than a tenth of their weight.
+    From a wide acceleration prior every model is still learning the motion for seconds and
+    the simplest wins on Occam's razor (a 3 g thrust looks like constant velocity to the
+    likelihoods); Kim's smoother, which does not re-weigh models with smoothed states, then
+    extrapolated the start hundreds of metres off (seed 004's experiment). Told the
+    acceleration, the right model explains the data from the first fix. Position and
+    velocity keep the honest prior: where they are weakly observed (range rates alone) a
+    smoothed start counted twice made the result overconfident.
     """
     n = first.xs.shape[1]
-    P = np.empty((n, n))
-    unpack(first.Ps[0], P)
-    return first.xs[0].copy(), IMM_START_WIDENING * P
+    Ps = np.empty((n, n))
+    unpack(first.Ps[0], Ps)
+    x, P = x0.copy(), P0.copy()
+    x[6:9] = first.xs[0, 6:9]
+    P[6:9, :] = 0.0
+    P[:, 6:9] = 0.0
+    P[6:9, 6:9] = IMM_START_WIDENING * Ps[6:9, 6:9]
+    return x, P
 
 
 def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
@@ -450,7 +456,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             if settings.process_noise is None and out.em is not None:
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
-            start = imm_start(first) if settings.imm_models else (x0, P0)
+            start = imm_start(first, x0, P0) if settings.imm_models else (x0, P0)
             out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
         return out, qq, noise

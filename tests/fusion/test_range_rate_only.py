@@ -10,6 +10,7 @@ import pandas as pd
 import pymap3d
 import pytest
 
+from rangeproc.config import FILTERS
 from rangeproc.evaluate import evaluate_run
 from rangeproc.fusion.initialise import given_prior, prior_at
 
@@ -49,9 +50,13 @@ def test_mistram_alone_without_initial_state_names_the_key(scenario, cli) -> Non
     assert "initial = { time = ..." in line
 
 
-def test_mistram_alone_with_initial_state_is_accurate_and_honest(scenario, cli,
-                                                                explain) -> None:
-    res = cli(["run", "--quiet", mistram_only_config(scenario, initial=True)])
+@pytest.mark.parametrize("name", FILTERS)
+def test_mistram_alone_with_initial_state_is_accurate_and_honest(scenario, cli, explain,
+                                                                name) -> None:
+    """Every filter starts from the given state and stays accurate and honest."""
+    config = mistram_only_config(scenario, initial=True)
+    config.write_text(config.read_text() + f'\n[processing]\nfilter = "{name}"\n')
+    res = cli(["run", "--quiet", config])
     assert res.exit_code == 0, explain(res)
     m = evaluate_run(scenario / "out", scenario / "truth.csv")["targets"]["T1"]
     assert m["pos_rmse"] < 100.0 and m["vel_rmse"] < 1.0
