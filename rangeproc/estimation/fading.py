@@ -36,6 +36,10 @@ is not). How it is fitted to a multi-sensor batch filter:
   for outliers;
 * an epoch fades only when the state uncertainty is a real part of its innovation variance
   (:data:`STF_MIN_SIGNAL`): noise-dominated rows cannot reveal a model error;
+* and only when one of its rows fixes the position by itself (a GPS fix, a radar's range and
+  angles): a factor on the whole covariance discards information that the epoch's rows must
+  be able to restore, and range rates or angles alone cannot (on MISTRAM alone, fading let the
+  weakly observed position wander 145 km off);
 * a warm-up: nothing fades before :data:`STF_WARMUP` epochs have entered V;
 * factors are capped at :data:`MAX_FADING` and stored per epoch so that the RTS smoother uses
   the very predicted covariance the filter used (``estimation.rts``): the offline counterpart.
@@ -147,13 +151,15 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
                       sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                       x: np.ndarray, P: np.ndarray, gate: np.ndarray, G: np.ndarray,
                       h: np.ndarray, H: np.ndarray, y6: np.ndarray, Hw: np.ndarray,
-                      S: np.ndarray, t: np.ndarray) -> tuple[float, int]:
+                      S: np.ndarray, t: np.ndarray) -> tuple[float, int, bool]:
     """Whitened innovations at the unfaded prediction ``x, P`` of all rows of one epoch.
 
     The epoch's rows (from ``i0`` while ``meas_epoch`` is the same) form one stacked
     measurement vector with ``R = I`` after whitening. Rows whose chi-square
     ``eps^T (H P H^T + I)^-1 eps`` exceeds ``gate`` are left out (wild points). Fills ``G``
-    (6, 6) with ``H^T H`` of the rows kept and returns ``(eps^T eps, m)`` over them.
+    (6, 6) with ``H^T H`` of the rows kept and returns ``(eps^T eps, m)`` over them, and
+    whether a kept row fixes the position by itself (three position components: a GPS fix,
+    or a radar's range, azimuth and elevation).
     ``h, y6`` (6,), ``H`` (6, n), ``Hw`` (6, 6), ``S`` (6, 6), ``t`` (6, 1) work arrays.
     """
     for a in range(N_OBSERVED):
@@ -161,6 +167,7 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
             G[a, b] = 0.0
     e2_sum = 0.0
     m_sum = 0
+    fixes = False
     i = i0
     k = meas_epoch[i0]
     while i < meas_epoch.shape[0] and meas_epoch[i] == k:
@@ -201,8 +208,10 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
             continue
         e2_sum += e2
         m_sum += m
+        fixes = fixes or (not math.isnan(z[i - 1, 0]) and not math.isnan(z[i - 1, 1])
+                          and not math.isnan(z[i - 1, 2]))
         for a in range(m):
             for j in range(N_OBSERVED):
                 for l in range(N_OBSERVED):
                     G[j, l] += Hw[a, j] * Hw[a, l]
-    return e2_sum, m_sum
+    return e2_sum, m_sum, fixes

@@ -406,15 +406,16 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             predict_state(x, dt)
             predict_cov(P, AP, dt, q_steps[k])
             if fading and dt > 0.0 and i < N and meas_epoch[i] == k:
-                e2, m_epoch = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv, Qr, x,
-                                                P, gate, G_stf, h, H, y6, Hw, St, tcol)
+                e2, m_epoch, fixes = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv,
+                                                       Qr, x, P, gate, G_stf, h, H, y6, Hw,
+                                                       St, tcol)
                 if m_epoch > 0:                          # strong tracking (estimation.fading)
                     v_row = e2 / m_epoch
                     v_stf = v_row if n_stf == 0 else (stf[STF_RHO] * v_stf + v_row) / (
                         1.0 + stf[STF_RHO])
                     n_stf += 1
-                    if n_stf > STF_WARMUP and fading_factors(stf, v_stf, m_epoch, G_stf, P,
-                                                             dt, q_steps[k], fade[k]):
+                    if n_stf > STF_WARMUP and fixes and fading_factors(
+                            stf, v_stf, m_epoch, G_stf, P, dt, q_steps[k], fade[k]):
                         apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
             m = 0

@@ -437,9 +437,11 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
     rho = settings.maneuver_norm if settings.askf else None
-    # the first pass of the IMM is the constant-acceleration EKF: it starts the IMM's models
+    # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
+    # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
+    # process noise leave, not for a track still converging from its start)
     first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate,
-                 replace(settings, imm_models=()) if settings.imm_models else settings, x_lin)
+                 replace(settings, imm_models=(), stf=()), x_lin)
     if settings.askf and rho is None:
         rho = estimate_norm(first.xs[grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
