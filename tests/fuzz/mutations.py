@@ -284,7 +284,11 @@ def config_ops(layout: BaseLayout) -> st.SearchStrategy[Op]:
         ("filter", "sage-husa"), ("filter", "askf"), ("maneuver_norm", 8.0),
         ("maneuver_norm", 1e-300), ("maneuver_norm", 1e300), ("sage_husa_window", 2),
         ("sage_husa_window", 10**9), ("sage_husa_mean", True), ("max_gap", 0.5),
-        ("max_gap", 1e-9), ("time_margin", 0.0), ("max_speed", 1.0), ("max_range", 1.0)))
+        ("max_gap", 1e-9), ("time_margin", 0.0), ("max_speed", 1.0), ("max_range", 1.0),
+        ("filter", "stukf"), ("filter", "imm"), ("stukf_weakening", 1.0),
+        ("stukf_weakening", 1e300), ("stukf_forgetting", 1e-300), ("stukf_ratios", [1e3] * 3),
+        ("stukf_ratios", [1, 1]), ("imm_models", ["ct"]), ("imm_models", ["cv", "cv"]),
+        ("imm_models", []), ("imm_sojourn", 1e-300), ("imm_sojourn", 1e-3)))
     return st.one_of(
         st.builds(ConfigDelete, st.sampled_from(keys)),
         st.builds(ConfigSet, st.sampled_from(numeric), any_value),
