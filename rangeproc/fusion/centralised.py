@@ -32,7 +32,7 @@ from scipy.stats import chi2
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
-from rangeproc.estimation.forward import EKF, kalman_forward
+from rangeproc.estimation.forward import EKF, NO_SPLINE, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
@@ -156,11 +156,11 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
          maneuver_norm: float = 0.0):
     """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
     try:
-        xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade = kalman_forward(
+        xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade, jerk, _, knot = kalman_forward(
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
             st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean,
-            maneuver_norm, np.asarray(st.stf, dtype=np.float64))
+            maneuver_norm, np.asarray(st.stf, dtype=np.float64), NO_SPLINE)
         if fade.shape[0]:
             faded = fade.max(axis=1) > 1.0
             log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
