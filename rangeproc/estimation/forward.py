@@ -46,8 +46,10 @@ from rangeproc.estimation.spline_filter import (
     SPL_RMS_MIN,
     SPL_WARMUP,
     add_jerk,
+    anomaly_inflation,
     anomaly_threshold,
     epoch_chi2,
+    segment_jerk,
 )
 from rangeproc.models.measurement import (
     AZIMUTH,
@@ -411,16 +413,16 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     y_raw = np.empty(N_COMPONENTS)
     joseph = method == EKF
     fading = stf.shape[0] > 0
-    fade = np.ones((E if fading else 0, N_KINEMATIC))
+    spline = spl.shape[0] > 0
+    if spline and (adapt or fading):
+        raise ValueError("the spline filter combines with neither Sage-Husa nor fading")
+    fade = np.ones((E if fading or spline else 0, N_KINEMATIC))
     v_stf = 0.0
     n_stf = 0
     G_stf = np.zeros((N_OBSERVED, N_OBSERVED))
     Hw = np.zeros((N_COMPONENTS, N_OBSERVED))
     St = np.empty((N_COMPONENTS, N_COMPONENTS))
     tcol = np.empty((N_COMPONENTS, 1))
-    spline = spl.shape[0] > 0
-    if spline and adapt:
-        raise ValueError("the spline filter does not combine with Sage-Husa adaptation")
     E_spl = E if spline else 0
     jerk_out = np.zeros((E_spl, 3))
     anomaly = np.zeros((E_spl, 2))
@@ -429,12 +431,12 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     G_spl = (np.max(sensor) + 1 if N > 0 else 1) * N_COMPONENTS if spline else 1
     rss = np.zeros(G_spl)
     rss_n = np.zeros(G_spl, dtype=np.int64)
-    a_pred = np.zeros(3)
+    a_knot = np.zeros(3)
+    t_knot = 0.0
     b_spl = np.empty(N_OBSERVED)
     L_spl = np.empty((N_OBSERVED, N_OBSERVED))
     n_meas_ep = 0
     last_knot = -SPL_MIN_SEGMENT
-    t_meas = 0.0
     anomalous = False
     dt = 0.0
     loglik = 0.0
@@ -471,11 +473,13 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             anomalous = (m_ep > 0 and n_meas_ep >= SPL_WARMUP
                          and n_meas_ep - last_knot >= SPL_MIN_SEGMENT
                          and chi > anomaly_threshold(spl, m_ep))
-            if anomalous:
+            if anomalous:                                # covariance opened (fading)
                 knot[k] = True
                 last_knot = n_meas_ep
-                for a in range(3):
-                    a_pred[a] = x[6 + a]
+                lam = anomaly_inflation(chi, m_ep, G_stf, P)
+                for a in range(N_KINEMATIC):             # stored: the smoother runs it too
+                    fade[k, a] = lam
+                apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
             m = 0
             for c in range(N_COMPONENTS):
@@ -573,13 +577,14 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             i += 1
         if spline and i_epoch < i:                       # the epoch had rows
             if anomalous:                                # seed 000 2.3.2: new segment
-                step = max(epoch_t[k] - t_meas, SPL_MIN_STEP)
                 for a in range(3):
-                    v = jerk[a] + (x[6 + a] - a_pred[a]) / step
-                    jerk[a] = min(max(v, -SPL_MAX_JERK), SPL_MAX_JERK)
+                    a_knot[a] = x[6 + a]
+                t_knot = epoch_t[k]
                 anomalous = False
+            elif last_knot >= 0 and n_meas_ep - last_knot == SPL_MIN_SEGMENT - 1 \
+                    and epoch_t[k] - t_knot >= SPL_MIN_STEP:
+                segment_jerk(x, a_knot, epoch_t[k] - t_knot, jerk)
             n_meas_ep += 1
-            t_meas = epoch_t[k]
         if maneuver_norm > 0.0:
             norm_update(x, P, x_lin[k] if x_lin.shape[0] == E else x, maneuver_norm, Pu)
         for a in range(n):

@@ -55,13 +55,15 @@ SPL_TABLE = 64
 #: Measurement epochs before the anomaly test is active (start-up transient).
 SPL_WARMUP = 20
 #: Measurement epochs after a knot before the next test (re-convergence on the new segment).
-SPL_MIN_SEGMENT = 5
+SPL_MIN_SEGMENT = 20
 #: Residuals a sensor component needs before its running RMS may replace its sigma.
 SPL_RMS_MIN = 10
 #: Largest adapted sigma, relative to the stated one.
 SPL_MAX_RATIO = 1e3
 #: Smallest step (s) the jerk re-estimate divides by (irregular multi-sensor stamps).
 SPL_MIN_STEP = 1e-2
+#: Largest covariance inflation at an anomaly.
+SPL_MAX_INFLATION = 1e4
 #: Largest re-estimated jerk per axis (m/s^3): about 100 g per second, beyond any airframe.
 SPL_MAX_JERK = 1e3
 
@@ -89,6 +91,22 @@ def anomaly_threshold(spl: np.ndarray, m: int) -> float:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def anomaly_inflation(chi: float, m: int, G: np.ndarray, P: np.ndarray) -> float:
+    """Factor on the predicted kinematic covariance at an anomalous epoch: the excess of the
+    whitened innovation over its noise share, ``(chi2 - M) / tr(H P H^T)`` (``G = H^T H``
+    whitened, as :func:`epoch_chi2` leaves it), so the prediction explains what the epoch saw
+    (the strong-tracking factor of ``estimation.fading`` with one epoch's statistic); in
+    ``[1, SPL_MAX_INFLATION]``."""
+    tr = 0.0
+    for a in range(N_OBSERVED):
+        for c in range(N_OBSERVED):
+            tr += G[a, c] * P[c, a]
+    if not tr > 0.0:
+        return 1.0
+    return min(max((chi - m) / tr, 1.0), SPL_MAX_INFLATION)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
     """Seed 000 eqs. 5/6: the known jerk input's share of one step, added to ``F x``."""
     h2 = 0.5 * dt * dt
@@ -97,6 +115,15 @@ def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
         x[a] += h3 * jerk[a]
         x[3 + a] += h2 * jerk[a]
         x[6 + a] += dt * jerk[a]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def segment_jerk(x: np.ndarray, a_knot: np.ndarray, span: float, jerk: np.ndarray) -> None:
+    """Re-estimate the jerk of the segment whose knot was ``span`` seconds ago (seed 000
+    2.3.2) from the filter's acceleration corrections since then: ``(a_now - a_knot) / span``
+    per axis, clamped to ``SPL_MAX_JERK`` (into ``jerk``)."""
+    for a in range(3):
+        jerk[a] = min(max((x[6 + a] - a_knot[a]) / span, -SPL_MAX_JERK), SPL_MAX_JERK)
 
 
 @njit(cache=True, error_model="numpy")
