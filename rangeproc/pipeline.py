@@ -65,7 +65,10 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              adapt_mean=p.sage_husa_mean, askf=p.filter == "askf",
                              maneuver_norm=p.maneuver_norm,
                              stf=(p.stukf_forgetting, p.stukf_weakening, *p.stukf_ratios)
-                             if p.filter == "stukf" else ())
+                             if p.filter == "stukf" else (),
+                             spline=p.filter == "spline",
+                             spline_probability=p.spline_anomaly_probability,
+                             spline_knot_spacing=p.spline_knot_spacing)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None

@@ -42,7 +42,7 @@ from rangeproc.estimation.spline_filter import (
     SPL_MAX_JERK,
     SPL_MAX_RATIO,
     SPL_MIN_SEGMENT,
-    SPL_MIN_STEP,
+    SPL_JERK_SPAN,
     SPL_RMS_MIN,
     SPL_WARMUP,
     add_jerk,
@@ -438,6 +438,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     n_meas_ep = 0
     last_knot = -SPL_MIN_SEGMENT
     anomalous = False
+    seg_open = False
     dt = 0.0
     loglik = 0.0
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
@@ -470,7 +471,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                                    G_stf, L_spl, h, H, y6, Hw, St, tcol, b_spl)
             anomaly[k, 0] = chi
             anomaly[k, 1] = m_ep
-            anomalous = (m_ep > 0 and n_meas_ep >= SPL_WARMUP
+            anomalous = (m_ep > 0 and n_meas_ep >= SPL_WARMUP and not seg_open
                          and n_meas_ep - last_knot >= SPL_MIN_SEGMENT
                          and chi > anomaly_threshold(spl, m_ep))
             if anomalous:                                # covariance opened (fading)
@@ -581,9 +582,11 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     a_knot[a] = x[6 + a]
                 t_knot = epoch_t[k]
                 anomalous = False
-            elif last_knot >= 0 and n_meas_ep - last_knot == SPL_MIN_SEGMENT - 1 \
-                    and epoch_t[k] - t_knot >= SPL_MIN_STEP:
+                seg_open = True
+            elif seg_open and n_meas_ep - last_knot >= SPL_MIN_SEGMENT - 1 \
+                    and epoch_t[k] - t_knot >= SPL_JERK_SPAN:
                 segment_jerk(x, a_knot, epoch_t[k] - t_knot, jerk)
+                seg_open = False
             n_meas_ep += 1
         if maneuver_norm > 0.0:
             norm_update(x, P, x_lin[k] if x_lin.shape[0] == E else x, maneuver_norm, Pu)

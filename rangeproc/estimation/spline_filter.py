@@ -24,15 +24,24 @@ the anomaly test fires:
   ``sigma = sqrt(RSS / (k - 1))`` over its accepted rows; at an anomalous epoch the rows use
   ``max(stated sigma, RMS)`` (floor at the stated sigma, at most :data:`SPL_MAX_RATIO` times it,
   and only once :data:`SPL_RMS_MIN` residuals exist) instead of their stated sigma;
-* **adaptive state equation** (2.3.2): after the anomalous epoch's update the jerk of the new
-  segment is re-estimated from the latest correction, ``S <- S + (a_k - a_{k|k-1}) / h``
-  (= ``(a_k - a_{k-1}) / h``, the document's ``h^-1 (X_a(k) - X_a(k-1))`` on a state that
-  carries the acceleration), ``h`` the step since the previous measurement epoch (at least
-  :data:`SPL_MIN_STEP`), and the epoch is a knot (returned, so the batch fit can place a knot
-  there). Safeguards: no test during the first :data:`SPL_WARMUP` measurement epochs (the
-  start-up transient of a track converging from its prior is not a segment change) nor within
-  :data:`SPL_MIN_SEGMENT` measurement epochs after a knot (the filter re-converging on the new
-  segment), and each jerk component is held within :data:`SPL_MAX_JERK` (m/s^3).
+* **adaptive state equation** (2.3.2): the anomalous epoch is a knot (returned, so the batch
+  fit places a knot there) and starts a new segment. First the predicted kinematic covariance
+  is opened by the epoch's excess, ``(chi2 - M) / tr(H P H^T)`` (:func:`anomaly_inflation`,
+  stored per epoch like a strong-tracking fading factor so the RTS smoother runs the very same
+  model), so the update re-estimates acceleration (and velocity) from the anomalous rows; then
+  the new segment's jerk is re-estimated from the acceleration corrections since the knot,
+  ``S = (a_now - a_knot) / (t_now - t_knot)`` (:func:`segment_jerk`; the document's
+  ``h^-1 (X_a(k) - X_a(k-1))`` over a window rather than one step), once
+  :data:`SPL_MIN_SEGMENT` measurement epochs and :data:`SPL_JERK_SPAN` seconds have passed,
+  and is then held as the segment's known input. The document's one-step form
+  ``S + (a_k - a_{k|k-1}) / h`` was tried first and fails: with a well-converged covariance
+  one update corrects the acceleration by a small fraction of the change, the estimate falls
+  short and the test fires again every few epochs on noise-free data.
+  Safeguards: no test during the first :data:`SPL_WARMUP` measurement epochs (the start-up
+  transient of a track converging from its prior is not a segment change) nor before the new
+  segment's jerk is estimated; the first segment keeps ``S = 0`` (the prior says nothing about
+  jerk); each jerk component is held within :data:`SPL_MAX_JERK` (m/s^3), the inflation
+  within :data:`SPL_MAX_INFLATION`.
 
 Layout of the ``spl`` parameter array of ``kalman_forward`` (empty = off):
 ``spl[0]`` the standard normal quantile of ``1 - alpha`` (Wilson-Hilferty), ``spl[m]`` for
@@ -60,8 +69,10 @@ SPL_MIN_SEGMENT = 20
 SPL_RMS_MIN = 10
 #: Largest adapted sigma, relative to the stated one.
 SPL_MAX_RATIO = 1e3
-#: Smallest step (s) the jerk re-estimate divides by (irregular multi-sensor stamps).
-SPL_MIN_STEP = 1e-2
+#: Shortest time (s) after a knot over which the new segment's jerk is estimated (with at
+#: least ``SPL_MIN_SEGMENT`` measurement epochs): dense multi-sensor stamps put 20 epochs
+#: within 0.1 s, far too short to tell a jerk from noise.
+SPL_JERK_SPAN = 1.0
 #: Largest covariance inflation at an anomaly.
 SPL_MAX_INFLATION = 1e4
 #: Largest re-estimated jerk per axis (m/s^3): about 100 g per second, beyond any airframe.

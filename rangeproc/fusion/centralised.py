@@ -35,9 +35,11 @@ from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, NO_SPLINE, kalman_forward
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
+from rangeproc.estimation.spline_filter import spline_params
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
+from rangeproc.fusion.spline_refine import spline_refine
 
 log = logging.getLogger(__name__)
 
@@ -69,6 +71,14 @@ class EstimatorSettings:
         unconstrained ASKF (the constant-acceleration EKF).
     stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
         alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
+    spline: seed 000's self-adaptive spline filter (``filter = "spline"``,
+        ``estimation.spline_filter``): jerk input per segment, anomaly test, adapted R and
+        jerk at anomalies, then the batch cubic B-spline fit (``estimation.spline_fit``) on
+        the anomaly knots plus regular knots replaces the smoothed track
+        (``fusion.spline_refine``).
+    spline_probability: probability ``1 - alpha`` of the anomaly test's chi-square quantile.
+    spline_knot_spacing: regular knot spacing (s) of the batch fit; None = from the data's
+        dynamics (``fusion.spline_refine.knot_times``).
     """
 
     gate_probability: float = 0.9999
@@ -87,6 +97,9 @@ class EstimatorSettings:
     askf: bool = False
     maneuver_norm: float | None = None
     stf: tuple[float, ...] = ()
+    spline: bool = False
+    spline_probability: float = 0.999
+    spline_knot_spacing: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -160,20 +173,25 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
             epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
             batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin,
             st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window, st.adapt_mean,
-            maneuver_norm, np.asarray(st.stf, dtype=np.float64), NO_SPLINE)
-        if fade.shape[0]:
+            maneuver_norm, np.asarray(st.stf, dtype=np.float64),
+            spline_params(st.spline_probability) if st.spline else NO_SPLINE)
+        if knot.shape[0]:
+            log.info("spline filter: %d anomaly knots", int(knot.sum()))
+        elif fade.shape[0]:
             faded = fade.max(axis=1) > 1.0
             log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
                      int(faded.sum()), len(faded), float(fade.max()))
         xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
-                                fade if fade.shape[0] else None)
+                                fade if fade.shape[0] else None,
+                                jerk if jerk.shape[0] else None)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
     if sigma_used.shape[0]:                  # adapted in the filter: report what it used
         batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
-    return xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets, batch
+    return (xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets, batch,
+            epoch_t[knot] if knot.shape[0] else epoch_t[:0])
 
 
 def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
@@ -281,12 +299,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     gate = gate_thresholds(settings.gate_probability)
     if settings.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
+    started = False                   # from the given prior (it then enters the spline fit)
     try:
         x0, P0 = initial_state(batch, float(epoch_t[0]))
     except NoPositionFix:
         if prior is None:
             raise
         x0, P0 = prior_at(prior, float(epoch_t[0]))
+        started = True
     if settings.process_noise is not None:
         q = np.full(len(epoch_t), settings.process_noise)
     else:
@@ -306,7 +326,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     tick(1, "pass 1")
     noise: dict[tuple[int, int], float] = {}
     for p in range(settings.noise_passes):
-        xs, Ps, em, nis, dof, used, res, hph, _, _ = out
+        xs, Ps, em, nis, dof, used, res, hph, _, _, _ = out
         x_lin = xs
         if settings.adapt_noise:
             sigma, noise = residual_sigma(batch, res, hph, used)
@@ -316,7 +336,11 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(q)))
         out = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate, settings, x_lin, rho or 0.0)
         tick(1, f"pass {p + 2}")
-    xs, Ps, em, nis, dof, used, res, hph, resets, batch = out
+    xs, Ps, em, nis, dof, used, res, hph, resets, batch, knots = out
+    if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
+        xs, Ps, res, hph = spline_refine(
+            batch, epoch_t, meas_epoch, xs, Ps, used, res, hph, q, knots,
+            settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=batch,
                         meas_epoch=meas_epoch, used=used, nis=nis, dof=dof, res=res,
                         hph=hph, q=q, noise=noise, n_resets=resets, maneuver_norm=rho)
