@@ -39,7 +39,6 @@ from rangeproc.estimation.fading import (
 from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack
 from rangeproc.estimation.spline_filter import (
-    SPL_MAX_JERK,
     SPL_MAX_RATIO,
     SPL_MIN_SEGMENT,
     SPL_JERK_SPAN,

@@ -41,7 +41,8 @@ JITTER = (1e-12, 1e-10, 1e-8, 1e-6)
 def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: float,
                        q: float, lam: np.ndarray, faded: bool) -> bool:
     """Recompute ``P_pred = F P_f F^T + Q`` (faded by ``lam`` when ``faded``) and factor it
-    with the smallest diagonal loading ``jitter * max(diag)`` of :data:`JITTER` that makes it positive definite (in place).
+    with the smallest diagonal loading ``jitter * max(diag)`` of :data:`JITTER` that makes
+    it positive definite (in place).
 
     The loading is a negligible extra process noise at that one step; False when even the
     largest fails (the covariance is then genuinely broken)."""

@@ -12,7 +12,8 @@ where neither exceeds the smoothed variance of the estimate, ``D = min((20 sigma
 (3 sigma_v^2 / q)^(1/3))`` with the local ``q``, ``sigma_p``, ``sigma_v`` of the smoother
 (range rates fix velocity far better than position, so the velocity term matters), so the
 spline's representation error stays at the level of the estimate's own uncertainty: short
-intervals in manoeuvres and where the data are precise, long ones in cruise. ``D`` is held in ``[max(SPACING_MIN, 4 row steps), SPACING_MAX]``.
+intervals in manoeuvres and where the data are precise, long ones in cruise. ``D`` is held in
+``[max(SPACING_MIN, 4 row steps), SPACING_MAX]``.
 
 Safeguards (each falls back to the smoothed track with a logged warning, never an error): a
 fit that raises (no usable rows, singular system), a non-finite result, or one inconsistent

@@ -36,7 +36,8 @@ def run(t, a, truth, window: int, mean: bool = False):
     gate = np.full(7, np.inf)
     return kalman_forward(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
                           a["Qr"], np.zeros(n, np.int64), x0, P0, np.full(n, Q), gate, 0, 1.0,
-                          np.empty((0, 9)), EKF, UKF_UNUSED, window, mean, 0.0, NO_FADING, NO_SPLINE)
+                          np.empty((0, 9)), EKF, UKF_UNUSED, window, mean, 0.0, NO_FADING,
+                          NO_SPLINE)
 
 
 def test_window_bookkeeping_alone_changes_nothing() -> None:
