@@ -4,6 +4,8 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SEEDS ?= 1 2 3 4 5 6
+FILTERS ?= ekf
+SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
@@ -43,9 +45,10 @@ bench-quick: $(STAMP)
 reproduce: $(STAMP)
 	$(BIN)/python -m bench.reproduction $(if $(ONLY),--only $(ONLY))
 
-## accuracy: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite).
+## accuracy: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite),
+## for each filter of FILTERS, the stated sigmas scaled by SIGMA_FACTOR.
 accuracy: $(STAMP)
-	$(BIN)/python bench/reproduce.py --seeds $(SEEDS)
+	$(BIN)/python bench/reproduce.py --seeds $(SEEDS) --filters $(FILTERS) --sigma-factor $(SIGMA_FACTOR)
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
 sample-data: $(STAMP)

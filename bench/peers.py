@@ -99,13 +99,16 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
 def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
-                     maneuver_norm: float = 0.0, stf: np.ndarray | None = None) -> tuple:
+                     maneuver_norm: float = 0.0, stf: np.ndarray | None = None,
+                     spl: np.ndarray | None = None) -> tuple:
     """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
     ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
     sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise;
     ``maneuver_norm`` > 0: seed 004's norm constraint at every epoch (m/s^2); ``stf``: seed
-    001's strong-tracking parameters (``rangeproc.estimation.fading``), None = off."""
-    from rangeproc.estimation.forward import NO_FADING
+    001's strong-tracking parameters (``rangeproc.estimation.fading``), None = off; ``spl``:
+    seed 000's spline-filter anomaly quantiles (``rangeproc.estimation.spline_filter``), None =
+    off."""
+    from rangeproc.estimation.forward import NO_FADING, NO_SPLINE
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -117,19 +120,23 @@ def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
             zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
             d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
             np.empty((0, 9)), int(method), UKF_PARAMS.copy(), int(adapt_window),
-            adapt_window > 0, float(maneuver_norm), NO_FADING if stf is None else stf)
+            adapt_window > 0, float(maneuver_norm), NO_FADING if stf is None else stf,
+            NO_SPLINE if spl is None else spl)
 
 
 def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The timed call: forward pass (EKF or UKF update, as ``args`` say) + RTS smoother
-    (without the EM process-noise statistic, which the peers do not compute). The motion
+    (without the EM process-noise statistic, which the peers do not compute; with the spline
+    filter's jerk input when it ran). The motion
     model is linear, so the unscented RTS smoother is this same RTS smoother. Returns
     (xf, xs, Ps packed)."""
     from rangeproc.estimation.forward import kalman_forward
     from rangeproc.estimation.rts import rts_smooth
     epoch_t, q_steps = args[0], args[11]
-    xf, Pf = kalman_forward(*args)[:2]
-    xs, Ps = rts_smooth(epoch_t, xf, Pf, q_steps, want_em=False)[:2]
+    out = kalman_forward(*args)
+    xf, Pf, jerk = out[0], out[1], out[10]
+    xs, Ps = rts_smooth(epoch_t, xf, Pf, q_steps, False, False, None,
+                        jerk if jerk.shape[0] else None)[:2]
     return xf, xs, Ps
 
 

@@ -56,7 +56,7 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
                     "sage_husa_window", "sage_husa_mean", "maneuver_norm",
                     "stukf_forgetting", "stukf_weakening", "stukf_ratios", "imm_models",
-                    "imm_sojourn")
+                    "imm_sojourn", "spline_knot_spacing", "spline_anomaly_probability")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -86,7 +86,11 @@ PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "stukf_weakening": (1.0, 1e3), "imm_sojourn": (1e-3, 1e7)})
 #: Bounds of each strong-tracking prior ratio alpha (seed 001: alpha >= 1).
 STUKF_RATIO_BOUNDS = (1.0, 1e3)
-FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf", "imm")
+FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf", "imm", "spline")
+#: processing.spline_knot_spacing (s): regular knots of the batch spline fit
+SPLINE_SPACING_BOUNDS = (1e-3, 1e5)
+#: processing.spline_anomaly_probability: 1 - alpha of seed 000's chi-square anomaly test
+SPLINE_PROBABILITY_BOUNDS = (0.5, 1.0)
 _SITED_KINDS = ("radar", "theodolite")   # need exactly one of site / platform
 _TARGETED_KINDS = ("gps", "mistram")     # carried by one cooperative target
 DEFAULT_TARGET = "T1"
@@ -344,6 +348,18 @@ class _Validator:
             mn = self.positive(t["maneuver_norm"], "processing.maneuver_norm")
             kw["maneuver_norm"] = self.bounded(mn, "processing.maneuver_norm", 1e-6, 1e5,
                                                "m/s^2")
+        if "spline_knot_spacing" in t:
+            ks = self.positive(t["spline_knot_spacing"], "processing.spline_knot_spacing")
+            kw["spline_knot_spacing"] = self.bounded(ks, "processing.spline_knot_spacing",
+                                                     *SPLINE_SPACING_BOUNDS, "s")
+        if "spline_anomaly_probability" in t:
+            p = self.number(t["spline_anomaly_probability"],
+                            "processing.spline_anomaly_probability")
+            lo, hi = SPLINE_PROBABILITY_BOUNDS
+            if not lo <= p < hi:
+                raise self.error("processing.spline_anomaly_probability",
+                                 f"must be in [{lo:g}, {hi:g}), got {p:g}")
+            kw["spline_anomaly_probability"] = p
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():

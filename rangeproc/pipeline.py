@@ -68,7 +68,10 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              stf=(p.stukf_forgetting, p.stukf_weakening, *p.stukf_ratios)
                              if p.filter == "stukf" else (),
                              imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
-                             if p.filter == "imm" else (), imm_sojourn=p.imm_sojourn)
+                             if p.filter == "imm" else (), imm_sojourn=p.imm_sojourn,
+                             spline=p.filter == "spline",
+                             spline_probability=p.spline_anomaly_probability,
+                             spline_knot_spacing=p.spline_knot_spacing)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None

@@ -110,8 +110,9 @@ class ProcessingSettings:
     filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "stukf" (strong-tracking UKF
         with multiple suboptimal fading factors, seed 001), "sage-husa" (the EKF with
         improved Sage-Husa adaptive measurement noise, seed 002), "imm" (interacting multiple
-        models with Kim's smoother) or "askf" (augmented-state filter with the maneuver-norm
-        constraint, seed 004).
+        models with Kim's smoother), "askf" (augmented-state filter with the maneuver-norm
+        constraint, seed 004) or "spline" (seed 000's self-adaptive spline filter, then the
+        batch cubic B-spline fit).
     sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
     sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
     maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
@@ -121,6 +122,10 @@ class ProcessingSettings:
         ratios alpha >= 1 of position, velocity and acceleration (``estimation.fading``).
     imm_models, imm_sojourn: the IMM's model set (of "cv", "ca", "ct") and the mean time (s)
         spent in a model before switching, to each other model alike (``estimation.imm``).
+    spline_knot_spacing: regular knot spacing (s) of the batch spline fit of
+        ``filter = "spline"``; None = from the data's dynamics (``fusion.spline_refine``).
+    spline_anomaly_probability: probability ``1 - alpha`` of seed 000's chi-square anomaly
+        test (``filter = "spline"``; default 0.999).
     max_gap: a target unobserved for longer than this (s) is split into separate spans with no
         output epochs in between; also the distance that makes a sensor's time stamps isolated.
     time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
@@ -147,6 +152,8 @@ class ProcessingSettings:
     stukf_ratios: tuple[float, float, float] = (1.0, 1.0, 1.0)
     imm_models: tuple[str, ...] = ("cv", "ca", "ct")
     imm_sojourn: float = 10.0
+    spline_knot_spacing: float | None = None
+    spline_anomaly_probability: float = 0.999
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

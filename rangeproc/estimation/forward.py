@@ -38,6 +38,18 @@ from rangeproc.estimation.fading import (
 )
 from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack
+from rangeproc.estimation.spline_filter import (
+    SPL_MAX_RATIO,
+    SPL_MIN_SEGMENT,
+    SPL_JERK_SPAN,
+    SPL_RMS_MIN,
+    SPL_WARMUP,
+    add_jerk,
+    anomaly_inflation,
+    anomaly_threshold,
+    epoch_chi2,
+    segment_jerk,
+)
 from rangeproc.models.measurement import (
     AZIMUTH,
     N_COMPONENTS,
@@ -58,6 +70,9 @@ MAX_RESET_INFLATION = 1e6
 
 #: ``stf`` argument of :func:`kalman_forward` that switches strong-tracking fading off.
 NO_FADING = np.zeros(0)
+
+#: ``spl`` argument of :func:`kalman_forward` that switches the adaptive spline filter off.
+NO_SPLINE = np.zeros(0)
 
 #: Update methods of :func:`kalman_forward`.
 EKF = 0
@@ -291,7 +306,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                    q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
                    reset_inflation: float, x_lin: np.ndarray, method: int, ukf: np.ndarray,
                    adapt_window: int, adapt_mean: bool, maneuver_norm: float,
-                   stf: np.ndarray):
+                   stf: np.ndarray, spl: np.ndarray):
     """Run the Kalman filter (EKF or UKF measurement update) over all epochs.
 
     Args:
@@ -327,6 +342,12 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         stf: (5,) strong tracking (seed 001, ``estimation.fading``): forgetting factor rho,
             weakening factor beta, prior ratios alpha of position, velocity, acceleration;
             an empty array switches fading off.
+        spl: seed 000's self-adaptive spline filter (``estimation.spline_filter``): the
+            anomaly test's chi-square quantiles (``spline_params``); an empty array
+            (``NO_SPLINE``) switches it off. On: a piecewise-constant jerk enters every
+            prediction as a known input, and an epoch whose stacked innovation chi-square
+            exceeds its quantile has its rows updated with the adapted sigmas and starts a new
+            segment with a re-estimated jerk. Not combined with ``adapt_window``.
 
     The motion model is linear (constant acceleration), so the prediction is exact for both
     methods and the UKF differs from the EKF only in the measurement update.
@@ -339,7 +360,11 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         at the gate), n_resets (int), ll_rows (N,) each row's contribution to loglik,
         sigma_used (N, 6) the sigmas the update used (adapted; ``(0, 6)`` when adaptation is
         off, the input sigmas then), fade (E, 9) the fading factors applied to the
-        prediction ending at each epoch (``(0, 9)`` when fading is off).
+        prediction ending at each epoch (``(0, 9)`` when fading is off), jerk (E, 3) the
+        jerk input (m/s^3) of the step ending at each epoch, anomaly (E, 2) the epoch's
+        stacked chi-square and its degrees of freedom (0, 0 without rows), knot (E,) bool:
+        the anomaly test fired there (a new segment starts); the last three have no rows
+        when the spline filter is off.
     """
     E = epoch_t.shape[0]
     N = meas_epoch.shape[0]
@@ -387,13 +412,32 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     y_raw = np.empty(N_COMPONENTS)
     joseph = method == EKF
     fading = stf.shape[0] > 0
-    fade = np.ones((E if fading else 0, N_KINEMATIC))
+    spline = spl.shape[0] > 0
+    if spline and (adapt or fading):
+        raise ValueError("the spline filter combines with neither Sage-Husa nor fading")
+    fade = np.ones((E if fading or spline else 0, N_KINEMATIC))
     v_stf = 0.0
     n_stf = 0
     G_stf = np.zeros((N_OBSERVED, N_OBSERVED))
     Hw = np.zeros((N_COMPONENTS, N_OBSERVED))
     St = np.empty((N_COMPONENTS, N_COMPONENTS))
     tcol = np.empty((N_COMPONENTS, 1))
+    E_spl = E if spline else 0
+    jerk_out = np.zeros((E_spl, 3))
+    anomaly = np.zeros((E_spl, 2))
+    knot = np.zeros(E_spl, dtype=np.bool_)
+    jerk = np.zeros(3)
+    G_spl = (np.max(sensor) + 1 if N > 0 else 1) * N_COMPONENTS if spline else 1
+    rss = np.zeros(G_spl)
+    rss_n = np.zeros(G_spl, dtype=np.int64)
+    a_knot = np.zeros(3)
+    t_knot = 0.0
+    b_spl = np.empty(N_OBSERVED)
+    L_spl = np.empty((N_OBSERVED, N_OBSERVED))
+    n_meas_ep = 0
+    last_knot = -SPL_MIN_SEGMENT
+    anomalous = False
+    seg_open = False
     dt = 0.0
     loglik = 0.0
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
@@ -405,6 +449,10 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             dt = epoch_t[k] - epoch_t[k - 1]
             predict_state(x, dt)
             predict_cov(P, AP, dt, q_steps[k])
+            if spline:                                   # seed 000 eqs. 5/6: jerk input
+                add_jerk(x, jerk, dt)
+                for a in range(3):
+                    jerk_out[k, a] = jerk[a]
             if fading and dt > 0.0 and i < N and meas_epoch[i] == k:
                 e2, m_epoch, fixes = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv,
                                                        Qr, x, P, gate, G_stf, h, H, y6, Hw,
@@ -417,6 +465,22 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     if n_stf > STF_WARMUP and fixes and fading_factors(
                             stf, v_stf, m_epoch, G_stf, P, dt, q_steps[k], fade[k]):
                         apply_fading(P, fade[k], dt, q_steps[k])
+        i_epoch = i
+        if spline and i < N and meas_epoch[i] == k:   # seed 000 sec. 2.2: anomaly test
+            chi, m_ep = epoch_chi2(i, meas_epoch, model, z, sigma, s, sv, Qr, x, P, gate,
+                                   G_stf, L_spl, h, H, y6, Hw, St, tcol, b_spl)
+            anomaly[k, 0] = chi
+            anomaly[k, 1] = m_ep
+            anomalous = (m_ep > 0 and n_meas_ep >= SPL_WARMUP and not seg_open
+                         and n_meas_ep - last_knot >= SPL_MIN_SEGMENT
+                         and chi > anomaly_threshold(spl, m_ep))
+            if anomalous:                                # covariance opened (fading)
+                knot[k] = True
+                last_knot = n_meas_ep
+                lam = anomaly_inflation(chi, m_ep, G_stf, P)
+                for a in range(N_KINEMATIC):             # stored: the smoother runs it too
+                    fade[k, a] = lam
+                apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
             m = 0
             for c in range(N_COMPONENTS):
@@ -440,10 +504,17 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                          adapt_mean)
                 for a in range(m):
                     sigma_used[i, idx[a]] = sig_row[a]
+            if anomalous:                                # seed 000 2.3.1: adapted R
+                for a in range(m):
+                    g = sensor[i] * N_COMPONENTS + idx[a]
+                    if rss_n[g] >= SPL_RMS_MIN:
+                        rms = math.sqrt(rss[g] / (rss_n[g] - 1))
+                        sig_row[a] = min(max(sig_row[a], rms), SPL_MAX_RATIO * sig_row[a])
             for a in range(m):
                 sig[a] = sig_row[a]
+            stats = adapt or spline
             val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, x, P, gate, joseph,
-                                           yw, HP, S, Kt, AP, APHt, sdiag, adapt, ew, Sinv)
+                                           yw, HP, S, Kt, AP, APHt, sdiag, stats, ew, Sinv)
             n_acc = m if ok else 0
             nis[i] = val
             mask = 0
@@ -460,7 +531,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 if 0 < mk < m:
                     val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, x, P, gate,
                                                       joseph, yw, HP, S, Kt, AP, APHt, sdiag,
-                                                      adapt, ew, Sinv)
+                                                      stats, ew, Sinv)
                     if ok2:
                         ok = True
                         n_acc = mk
@@ -476,6 +547,12 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     ratio = (ew[b] * ew[b] + 1.0 - Sinv[b, b]) * scale * scale
                     sh_record(sensor[i] * N_COMPONENTS + idx[a], ratio, y_raw[a], sh_buf,
                               sh_count, sh_pos, sh_acc, adapt_window)
+            if spline and ok:                            # running residual RSS (2.3.1)
+                for b in range(n_acc):
+                    g = sensor[i] * N_COMPONENTS + idx[sel[b]]
+                    r = ew[b] * sig[b]                   # post-update residual z - h(x_k)
+                    rss[g] += r * r
+                    rss_n[g] += 1
             if ok:
                 consecutive[sensor[i]] = 0
                 rejected[i] = mask
@@ -499,6 +576,18 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                         sh_reset(sh_count, sh_pos, sh_acc)
             ll_rows[i] = loglik - ll_before
             i += 1
+        if spline and i_epoch < i:                       # the epoch had rows
+            if anomalous:                                # seed 000 2.3.2: new segment
+                for a in range(3):
+                    a_knot[a] = x[6 + a]
+                t_knot = epoch_t[k]
+                anomalous = False
+                seg_open = True
+            elif seg_open and n_meas_ep - last_knot >= SPL_MIN_SEGMENT - 1 \
+                    and epoch_t[k] - t_knot >= SPL_JERK_SPAN:
+                segment_jerk(x, a_knot, epoch_t[k] - t_knot, jerk)
+                seg_open = False
+            n_meas_ep += 1
         if maneuver_norm > 0.0:
             norm_update(x, P, x_lin[k] if x_lin.shape[0] == E else x, maneuver_norm, Pu)
         for a in range(n):
@@ -506,4 +595,5 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 raise FloatingPointError("non-finite state in the Kalman filter")
         xf[k] = x
         pack(P, Pf[k])
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used, fade
+    return (xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used, fade,
+            jerk_out, anomaly, knot)

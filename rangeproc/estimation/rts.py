@@ -29,6 +29,7 @@ from numba import njit
 from rangeproc.estimation.fading import apply_fading
 from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+from rangeproc.estimation.spline_filter import add_jerk
 
 
 #: Relative diagonal loadings tried when a predicted covariance fails its Cholesky factorisation
@@ -67,7 +68,7 @@ def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: f
 
 @njit(cache=True, error_model="numpy")
 def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
-               want_em: bool = True, in_place: bool = False, fade=None):
+               want_em: bool = True, in_place: bool = False, fade=None, jerk=None):
     """Smooth filtered states.
 
     Args:
@@ -82,6 +83,10 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
             is then ``Lambda^(1/2) F P F^T Lambda^(1/2) + Q`` and the step's effective process
             noise ``P_pred - F P F^T`` replaces Q in the smoothed covariance (the smoother of
             the model the filter actually ran).
+        jerk: None, or (E, 3) the known jerk input (m/s^3) the filter added to the prediction
+            ending at each epoch (seed 000's spline filter, ``estimation.spline_filter``): the
+            predicted state is then ``F x + B S`` and the EM statistic takes the input's
+            acceleration increment ``S dt`` out (it is not white jerk).
 
     Returns:
         xs (E, n), Ps (E, n(n+1)/2) packed smoothed states and covariances, and
@@ -120,6 +125,8 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
             for j in range(n):
                 P_pred[i, j] = P_f[i, j]
         predict_state(x_pred, dt)
+        if jerk is not None:                           # + B S: the known jerk input
+            add_jerk(x_pred, jerk[k + 1], dt)
         predict_cov(P_pred, T, dt, q)                  # P_pred = F P_f F^T + Q
         lam = no_fade
         faded = False
@@ -194,6 +201,8 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                 for l in range(n):
                     cross += P_next[ax, l] * Ct[l, ax]
                 d = xs[k + 1, ax] - xs[k, ax]
+                if jerk is not None:                   # the known input's increment
+                    d -= jerk[k + 1, ax - 6] * dt
                 acc += d * d + P_next[ax, ax] + P_f[ax, ax] - 2.0 * cross
                 if faded:                              # the fading's share is not white jerk
                     acc -= Q_eff[ax, ax] - q * dt

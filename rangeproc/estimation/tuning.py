@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from rangeproc.estimation.forward import EKF, NO_FADING, kalman_forward
+from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
 
 #: UKF parameters argument (unused by the EKF the likelihood search runs).
 EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
@@ -55,7 +55,7 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
             sub_epochs, meas_epoch, batch.model[rows], batch.z[rows], batch.sigma[rows],
             batch.s[rows], batch.sv[rows], batch.Qr[rows], batch.sensor[rows], x0, P0,
             np.full(len(sub_epochs), float(q)), gate, reset_after, reset_inflation, no_lin,
-            EKF, EKF_UNUSED_UKF, 0, False, 0.0, NO_FADING)[7]
+            EKF, EKF_UNUSED_UKF, 0, False, 0.0, NO_FADING, NO_SPLINE)[7]
     total = ll_rows.sum(axis=1)
     best = int(np.argmax(total))
     q_global = float(grid[best])

@@ -33,14 +33,16 @@ from scipy.stats import chi2
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
-from rangeproc.estimation.forward import EKF, kalman_forward
+from rangeproc.estimation.forward import EKF, NO_SPLINE, kalman_forward
 from rangeproc.estimation.imm import MODEL_NAMES, imm_forward, imm_smooth
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
+from rangeproc.estimation.spline_filter import spline_params
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
+from rangeproc.fusion.spline_refine import spline_refine
 
 log = logging.getLogger(__name__)
 
@@ -87,6 +89,14 @@ class EstimatorSettings:
         EKF. imm_sojourn: mean time (s) in a model before a switch.
     stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
         alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
+    spline: seed 000's self-adaptive spline filter (``filter = "spline"``,
+        ``estimation.spline_filter``): jerk input per segment, anomaly test, adapted R and
+        jerk at anomalies, then the batch cubic B-spline fit (``estimation.spline_fit``) on
+        the anomaly knots plus regular knots replaces the smoothed track
+        (``fusion.spline_refine``).
+    spline_probability: probability ``1 - alpha`` of the anomaly test's chi-square quantile.
+    spline_knot_spacing: regular knot spacing (s) of the batch fit; None = from the data's
+        dynamics (``fusion.spline_refine.knot_times``).
     """
 
     gate_probability: float = 0.9999
@@ -107,6 +117,9 @@ class EstimatorSettings:
     stf: tuple[float, ...] = ()
     imm_models: tuple[int, ...] = ()
     imm_sojourn: float = 10.0
+    spline: bool = False
+    spline_probability: float = 0.999
+    spline_knot_spacing: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -181,7 +194,8 @@ class PassResult(NamedTuple):
     process-noise statistic (None for the IMM, whose models carry their own dynamics); per row
     ``nis``, ``dof``, ``used`` (N, 6), ``res``, ``hph`` (N, 6); divergence-guard ``resets``;
     the ``batch`` with the sigmas used; ``model_prob`` (E, r) the IMM's smoothed model
-    probabilities (None otherwise)."""
+    probabilities (None otherwise); ``knots`` the spline filter's anomaly times (s; empty
+    for the other filters)."""
 
     xs: np.ndarray
     Ps: np.ndarray
@@ -194,6 +208,7 @@ class PassResult(NamedTuple):
     resets: int
     batch: MeasurementBatch
     model_prob: np.ndarray | None = None
+    knots: np.ndarray | None = None
 
 
 def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
@@ -204,19 +219,25 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
         if st.imm_models:
             xs, Ps, model_prob, nis, dof, rej, resets = _run_imm(batch, epoch_t, meas_epoch,
                                                                  x0, P0, q, gate, st, x_lin)
-            em, sigma_used = None, np.zeros((0, 6))
+            em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
         else:
-            xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade = kalman_forward(
-                epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-                batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation,
-                x_lin, st.method, np.asarray(st.ukf, dtype=np.float64), st.adapt_window,
-                st.adapt_mean, maneuver_norm, np.asarray(st.stf, dtype=np.float64))
-            if fade.shape[0]:
+            xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade, jerk, _, knot = \
+                kalman_forward(
+                    epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                    batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
+                    st.reset_inflation, x_lin, st.method, np.asarray(st.ukf, dtype=np.float64),
+                    st.adapt_window, st.adapt_mean, maneuver_norm,
+                    np.asarray(st.stf, dtype=np.float64),
+                    spline_params(st.spline_probability) if st.spline else NO_SPLINE)
+            if knot.shape[0]:
+                log.info("spline filter: %d anomaly knots", int(knot.sum()))
+            elif fade.shape[0]:
                 faded = fade.max(axis=1) > 1.0
                 log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
                          int(faded.sum()), len(faded), float(fade.max()))
             xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
-                                    fade if fade.shape[0] else None)
+                                    fade if fade.shape[0] else None,
+                                    jerk if jerk.shape[0] else None)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
@@ -224,7 +245,7 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
     if sigma_used.shape[0]:                  # adapted in the filter: report what it used
         batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
     return PassResult(xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets,
-                      batch, model_prob)
+                      batch, model_prob, epoch_t[knot] if knot.shape[0] else epoch_t[:0])
 
 
 def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
@@ -420,12 +441,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     gate = gate_thresholds(settings.gate_probability)
     if settings.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
+    started = False                   # from the given prior (it then enters the spline fit)
     try:
         x0, P0 = initial_state(batch, float(epoch_t[0]))
     except NoPositionFix:
         if prior is None:
             raise
         x0, P0 = prior_at(prior, float(epoch_t[0]))
+        started = True
     if settings.process_noise is not None:
         q = np.full(len(epoch_t), settings.process_noise)
     else:
@@ -468,8 +491,13 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         free = refine(None, tick=lambda *a, **k: None)
         if not constraint_agrees(out, free[0], rho):
             rho, (out, q, noise) = None, free
-    return FusionResult(epoch_t=epoch_t, xs=out.xs, Ps=out.Ps, grid=grid, batch=out.batch,
+    xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
+    if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
+        xs, Ps, res, hph = spline_refine(
+            out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
+            settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
+    return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
-                        res=out.res, hph=out.hph, q=q, noise=noise, n_resets=out.resets,
+                        res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,
                         maneuver_norm=rho, model_prob=out.model_prob,
                         model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models))

@@ -7,6 +7,7 @@ from rangeproc.estimation.forward import (
     EKF,
     MAX_RESET_INFLATION,
     NO_FADING,
+    NO_SPLINE,
     kalman_forward,
 )
 from rangeproc.estimation.rts import rts_smooth
@@ -38,7 +39,7 @@ def test_thousands_of_rejected_rows_at_one_epoch_reset_once_and_smooth() -> None
     xf, Pf, nis, dof, rej, ll, n_resets, *_ = kalman_forward(
         epoch_t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
         np.zeros(t.size, np.int64), x0, P0, np.full(epoch_t.size, 1.0), gate, 50, 100.0,
-        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING)
+        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING, NO_SPLINE)
     assert n_resets == 1
     assert np.isfinite(Pf).all() and np.isfinite(xf).all()
     assert Pf.max() < MAX_RESET_INFLATION * 1e3

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from rangeproc.estimation.forward import NO_FADING, kalman_forward
+from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, kalman_forward
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.centralised import gate_thresholds
@@ -39,7 +39,7 @@ def _run(t, z, sigma, x0, P0, q, gate, site=np.zeros(3), Qr=np.eye(3), reset_aft
     return kalman_forward(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s,
                        np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0,
                        np.full(n, float(q)), gate, reset_after, 100.0, np.empty((0, 9)), 0,
-                          np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING)
+                          np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING, NO_SPLINE)
 
 
 def test_ekf_matches_filterpy_extended_kalman_filter():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from rangeproc.estimation.fading import MAX_FADING, STF_WARMUP, fading_factors
-from rangeproc.estimation.forward import EKF, NO_FADING, UKF, kalman_forward
+from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, UKF, kalman_forward
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.models.measurement import CARTESIAN
@@ -63,8 +63,8 @@ def test_fading_follows_the_manoeuvre_and_the_smoother_is_exact(method):
     the onset and tracks better; its RTS smoother equals the textbook smoother of the model the
     filter ran (P_pred = L^1/2 F P F^T L^1/2 + Q) to 1e-9."""
     t, pos, args = _manoeuvre()
-    xf0, Pf0 = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, NO_FADING)[:2]
-    out = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, STF)
+    xf0, Pf0 = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, NO_FADING, NO_SPLINE)[:2]
+    out = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, STF, NO_SPLINE)
     xf, Pf, fade = out[0], out[1], out[9]
     faded_t = t[fade.max(axis=1) > 1.0]
     assert faded_t.size and faded_t.min() > t[STF_WARMUP]
@@ -90,8 +90,8 @@ def test_without_fading_stukf_is_the_ukf():
     (same arithmetic, no factor ever differs from 1)."""
     t, pos, args = _manoeuvre(seed=2)
     never = np.array([0.95, 1e300, 1.0, 1.0, 1.0])
-    a = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, never)
-    b = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, NO_FADING)
+    a = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, never, NO_SPLINE)
+    b = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, NO_FADING, NO_SPLINE)
     np.testing.assert_array_equal(a[9], 1.0)
     np.testing.assert_allclose(a[0], b[0], atol=1e-10, rtol=0)
     np.testing.assert_allclose(a[1], b[1], atol=1e-10, rtol=0)

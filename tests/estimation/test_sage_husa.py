@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rangeproc.estimation.adaptive import SH_WARMUP
-from rangeproc.estimation.forward import EKF, NO_FADING, kalman_forward
+from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
 from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN
 
@@ -36,7 +36,8 @@ def run(t, a, truth, window: int, mean: bool = False):
     gate = np.full(7, np.inf)
     return kalman_forward(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
                           a["Qr"], np.zeros(n, np.int64), x0, P0, np.full(n, Q), gate, 0, 1.0,
-                          np.empty((0, 9)), EKF, UKF_UNUSED, window, mean, 0.0, NO_FADING)
+                          np.empty((0, 9)), EKF, UKF_UNUSED, window, mean, 0.0, NO_FADING,
+                          NO_SPLINE)
 
 
 def test_window_bookkeeping_alone_changes_nothing() -> None:
@@ -93,7 +94,7 @@ def test_noise_mean_and_variance_are_told_apart() -> None:
         out = kalman_forward(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
                              a["Qr"], np.zeros(n, np.int64), x0, P0, np.full(n, 1e-15),
                              np.full(7, np.inf), 0, 1.0, np.empty((0, 9)), EKF, UKF_UNUSED,
-                             100, mean, 0.0, NO_FADING)
+                             100, mean, 0.0, NO_FADING, NO_SPLINE)
         return float(np.median(out[8][1000:, 0]))
 
     assert sigma_east(True) == pytest.approx(2.0, rel=0.15)

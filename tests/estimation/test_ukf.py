@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from rangeproc.estimation.forward import NO_FADING, UKF, kalman_forward
+from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, UKF, kalman_forward
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.models.measurement import SPHERICAL, measure_py, wrap_angle
@@ -42,7 +42,7 @@ def test_ukf_update_matches_filterpy_with_redrawn_sigma_points():
         t, np.arange(n), np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)), np.zeros((n, 3)),
         np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64), x0, P0, q, np.full(7, np.inf),
         0, 1.0, np.empty((0, 9)), UKF, np.array([alpha, beta, kappa]), 0, False,
-        0.0, NO_FADING)
+        0.0, NO_FADING, NO_SPLINE)
 
     points = filterpy_kalman.MerweScaledSigmaPoints(9, alpha=alpha, beta=beta, kappa=kappa)
 
@@ -103,6 +103,8 @@ def test_ukf_and_ekf_agree_when_the_measurement_is_nearly_linear():
               np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64),
               truth[0].copy(), P0, np.full(n, 5.0), np.full(7, np.inf), 0, 1.0,
               np.empty((0, 9)))
-    xe = kalman_forward(*common, 0, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING)[0]
-    xu = kalman_forward(*common, UKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING)[0]
+    xe = kalman_forward(*common, 0, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING,
+                        NO_SPLINE)[0]
+    xu = kalman_forward(*common, UKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING,
+                        NO_SPLINE)[0]
     assert np.abs(xe[20:, :3] - xu[20:, :3]).max() < 0.05

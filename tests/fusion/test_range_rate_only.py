@@ -73,3 +73,17 @@ def test_prior_moves_by_the_constant_acceleration_model_both_ways(dt: float) -> 
     back = given_prior(100.0 + dt, x[:3], x[3:6], 1.0, 1.0)
     np.testing.assert_allclose(prior_at(back, 100.0)[0][:6], prior.x[:6], atol=1e-12)
     assert np.all(np.linalg.eigvalsh(P) > 0)
+
+
+def test_mistram_alone_spline_filter_is_accurate_and_honest(scenario, cli, explain) -> None:
+    """Seed 000's own setting: range rates alone, ``filter = "spline"`` (anomaly-knot filter,
+    then the batch B-spline fit from the given initial state)."""
+    path = mistram_only_config(scenario, initial=True)
+    spline = path.with_name("mistram_spline.toml")
+    spline.write_text(path.read_text().replace('dir = "out"', 'dir = "out_spline"')
+                      + '\n[processing]\nfilter = "spline"\n')
+    res = cli(["run", "--quiet", spline])
+    assert res.exit_code == 0, explain(res)
+    m = evaluate_run(scenario / "out_spline", scenario / "truth.csv")["targets"]["T1"]
+    assert m["pos_rmse"] < 100.0 and m["vel_rmse"] < 1.0
+    assert min(m["inside_3sigma_enu"]) >= 0.95, m

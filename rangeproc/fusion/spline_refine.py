@@ -1,0 +1,115 @@
+"""Post-flight refinement of ``filter = "spline"``: the batch cubic B-spline fit on the filter's
+anomaly knots plus regular knots replaces the smoothed track (seed 000: offline processing by
+batch estimation on a spline trajectory is the high-accuracy counterpart of its real-time
+filter; ``estimation.spline_fit``).
+
+Knots: the anomaly times of the final pass (where the filter saw the jerk change) plus a
+regular grid whose spacing follows the data's dynamics unless configured
+(``spline_knot_spacing``). The rule: over one knot interval a cubic cannot follow the white
+jerk the smoother estimated, whose position variance over an interval ``D`` is ``q D^5 / 20``
+(the CA model's ``Q[0, 0]``) and velocity variance ``q D^3 / 3``; the interval is the longest
+where neither exceeds the smoothed variance of the estimate, ``D = min((20 sigma_p^2 / q)^(1/5),
+(3 sigma_v^2 / q)^(1/3))`` with the local ``q``, ``sigma_p``, ``sigma_v`` of the smoother
+(range rates fix velocity far better than position, so the velocity term matters), so the
+spline's representation error stays at the level of the estimate's own uncertainty: short
+intervals in manoeuvres and where the data are precise, long ones in cruise. ``D`` is held in
+``[max(SPACING_MIN, 4 row steps), SPACING_MAX]``.
+
+Safeguards (each falls back to the smoothed track with a logged warning, never an error): a
+fit that raises (no usable rows, singular system), a non-finite result, or one inconsistent
+with the data: whitened chi-square per degree of freedom more than :data:`MAX_CHI2_RATIO` times
+the smoother's (per used component, at least 1). The fit's covariance assumes the sigmas; when
+its chi-square per degree of freedom exceeds 1 the covariance is scaled by it (the usual
+variance-of-unit-weight correction), so misfit shows in the sigmas.
+"""
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+
+from rangeproc.estimation.residuals import smoothed_residuals
+from rangeproc.estimation.spline_fit import fit_spline
+from rangeproc.fusion.batch import MeasurementBatch
+
+log = logging.getLogger(__name__)
+
+#: Bounds (s) of the automatic regular knot spacing.
+SPACING_MIN = 0.1
+SPACING_MAX = 10.0
+#: Largest accepted ratio of the fit's chi-square per dof to the smoother's.
+MAX_CHI2_RATIO = 2.0
+_TRIL = np.tril_indices(9)
+
+
+def knot_times(epoch_t: np.ndarray, Ps: np.ndarray, q: np.ndarray, row_t: np.ndarray,
+               anomalies: np.ndarray, spacing: float | None) -> np.ndarray:
+    """Interior knot times (s): the anomaly times plus a regular grid of ``spacing`` s, or of
+    the dynamics rule of the module docstring when ``spacing`` is None."""
+    t0, t1 = float(epoch_t[0]), float(epoch_t[-1])
+    if spacing is not None:
+        grid = np.arange(t0 + spacing, t1, spacing)
+    else:
+        steps = np.diff(np.unique(row_t))
+        lo = max(SPACING_MIN, 4.0 * float(np.median(steps)) if steps.size else SPACING_MIN)
+        var_p = (Ps[:, 0] + Ps[:, 2] + Ps[:, 5]) / 3.0          # packed diagonal of e, n, u
+        var_v = (Ps[:, 9] + Ps[:, 14] + Ps[:, 20]) / 3.0        # of ve, vn, vu
+        qq = np.maximum(q, 1e-12)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = np.minimum((20.0 * var_p / qq) ** 0.2, (3.0 * var_v / qq) ** (1.0 / 3.0))
+        d = np.clip(np.nan_to_num(d, nan=SPACING_MAX, posinf=SPACING_MAX), lo,
+                    max(lo, SPACING_MAX))
+        out, t = [], t0
+        while True:
+            t += float(d[min(np.searchsorted(epoch_t, t), len(epoch_t) - 1)])
+            if t >= t1:
+                break
+            out.append(t)
+        grid = np.asarray(out)
+    return np.union1d(grid, anomalies)
+
+
+def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.ndarray,
+                  xs: np.ndarray, Ps: np.ndarray, used: np.ndarray, res: np.ndarray,
+                  hph: np.ndarray, q: np.ndarray, anomalies: np.ndarray,
+                  spacing: float | None, prior: tuple | None):
+    """The batch spline fit replacing the smoothed ``xs, Ps`` (packed) at the epochs inside
+    its span, and the residuals ``res, hph`` recomputed from it; the inputs unchanged (with a
+    warning) when the fit fails or is inconsistent (module docstring).
+
+    ``used`` (N, 6): the components the final pass accepted; ``prior``: ``(t, x, P)`` of the
+    given initial state when the span was started from it, else None."""
+    if xs.shape[1] != 9:                 # the fit is of the 9-state kinematics only
+        return xs, Ps, res, hph
+    knots = knot_times(epoch_t, Ps, q, batch.t, anomalies, spacing)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)    # a ridge = unobservable: no
+            fit = fit_spline(batch.t, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                             batch.Qr, interior_knots=knots, x_init=xs[meas_epoch], use=used,
+                             prior=prior)
+    except (ValueError, ArithmeticError, RuntimeWarning, np.linalg.LinAlgError) as exc:
+        log.warning("spline fit failed (%s): the smoothed track is kept", exc)
+        return xs, Ps, res, hph
+    w = np.isfinite(res) & used
+    n_used = int(w.sum())
+    chi2_smooth = float(np.sum((res[w] / batch.sigma[w]) ** 2)) / max(n_used, 1)
+    ratio = fit.chi2 / max(fit.dof, 1)
+    if not np.isfinite(fit.chi2) or not np.all(np.isfinite(fit.coef)) \
+            or ratio > MAX_CHI2_RATIO * max(chi2_smooth, 1.0):
+        log.warning("spline fit inconsistent (chi2/dof %.3g against the smoother's %.3g): "
+                    "the smoothed track is kept", ratio, chi2_smooth)
+        return xs, Ps, res, hph
+    inside = (epoch_t >= fit.knots[0]) & (epoch_t <= fit.knots[-1])
+    x_fit, P_fit = fit.evaluate(epoch_t[inside])
+    P_fit *= max(ratio, 1.0)
+    xs, Ps = xs.copy(), Ps.copy()
+    xs[inside, :9] = x_fit
+    Ps[inside] = P_fit[:, _TRIL[0], _TRIL[1]]
+    log.info("spline fit: %d interior knots (%d at anomalies), chi2/dof %.3g (smoother %.3g), "
+             "%d Gauss-Newton steps", len(fit.knots) - 8, len(anomalies), ratio, chi2_smooth,
+             fit.n_iter)
+    res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
+                                  batch.Qr, xs, Ps)
+    return xs, Ps, res, hph
