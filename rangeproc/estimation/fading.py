@@ -151,20 +151,22 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
                       sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                       x: np.ndarray, P: np.ndarray, gate: np.ndarray, G: np.ndarray,
                       h: np.ndarray, H: np.ndarray, y6: np.ndarray, Hw: np.ndarray,
-                      S: np.ndarray, t: np.ndarray) -> tuple[float, int, bool]:
+                      S: np.ndarray, t: np.ndarray, b: np.ndarray) -> tuple[float, int, bool]:
     """Whitened innovations at the unfaded prediction ``x, P`` of all rows of one epoch.
 
     The epoch's rows (from ``i0`` while ``meas_epoch`` is the same) form one stacked
     measurement vector with ``R = I`` after whitening. Rows whose chi-square
     ``eps^T (H P H^T + I)^-1 eps`` exceeds ``gate`` are left out (wild points). Fills ``G``
-    (6, 6) with ``H^T H`` of the rows kept and returns ``(eps^T eps, m)`` over them, and
-    whether a kept row fixes the position by itself (three position components: a GPS fix,
-    or a radar's range, azimuth and elevation).
+    (6, 6) with ``H^T H`` and ``b`` (6,) with ``H^T eps`` of the rows kept (the stacked
+    information form; also seed 000's anomaly test, ``estimation.spline_filter``) and returns
+    ``(eps^T eps, m)`` over them, and whether a kept row fixes the position by itself (three
+    position components: a GPS fix, or a radar's range, azimuth and elevation).
     ``h, y6`` (6,), ``H`` (6, n), ``Hw`` (6, 6), ``S`` (6, 6), ``t`` (6, 1) work arrays.
     """
     for a in range(N_OBSERVED):
-        for b in range(N_OBSERVED):
-            G[a, b] = 0.0
+        b[a] = 0.0
+        for c in range(N_OBSERVED):
+            G[a, c] = 0.0
     e2_sum = 0.0
     m_sum = 0
     fixes = False
@@ -188,13 +190,13 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
         if m == 0:
             continue
         for a in range(m):                               # S = Hw P Hw^T + I
-            for b in range(a + 1):
+            for c in range(a + 1):
                 acc = 0.0
                 for j in range(N_OBSERVED):
                     for l in range(N_OBSERVED):
-                        acc += Hw[a, j] * P[j, l] * Hw[b, l]
-                S[a, b] = acc
-                S[b, a] = acc
+                        acc += Hw[a, j] * P[j, l] * Hw[c, l]
+                S[a, c] = acc
+                S[c, a] = acc
             S[a, a] += 1.0
         for a in range(m):                               # keep eps: nis needs it after solve
             y6[a] = t[a, 0]
@@ -210,8 +212,9 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
         m_sum += m
         fixes = fixes or (not math.isnan(z[i - 1, 0]) and not math.isnan(z[i - 1, 1])
                           and not math.isnan(z[i - 1, 2]))
-        for a in range(m):
+        for a in range(m):                               # G += Hw^T Hw, b += Hw^T eps
             for j in range(N_OBSERVED):
+                b[j] += Hw[a, j] * y6[a]
                 for l in range(N_OBSERVED):
                     G[j, l] += Hw[a, j] * Hw[a, l]
     return e2_sum, m_sum, fixes

@@ -456,7 +456,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             if fading and dt > 0.0 and i < N and meas_epoch[i] == k:
                 e2, m_epoch, fixes = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv,
                                                        Qr, x, P, gate, G_stf, h, H, y6, Hw,
-                                                       St, tcol)
+                                                       St, tcol, b_spl)
                 if m_epoch > 0:                          # strong tracking (estimation.fading)
                     v_row = e2 / m_epoch
                     v_stf = v_row if n_stf == 0 else (stf[STF_RHO] * v_stf + v_row) / (

@@ -55,9 +55,9 @@ import numpy as np
 from numba import njit
 from scipy.stats import chi2, norm
 
+from rangeproc.estimation.fading import epoch_innovations
 from rangeproc.estimation.kernels import N_OBSERVED
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
-from rangeproc.models.measurement import N_COMPONENTS, innovation, measure
 
 #: Degrees of freedom tabulated exactly in ``spl``; Wilson-Hilferty beyond.
 SPL_TABLE = 64
@@ -148,57 +148,8 @@ def epoch_chi2(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray
 
     ``G, L`` (6, 6), ``h, y6, b`` (6,), ``H`` (6, n), ``Hw, S`` (6, 6), ``t`` (6, 1) work.
     Returns ``(0, 0)`` when no row is kept or the 6x6 algebra fails."""
-    for a in range(N_OBSERVED):
-        b[a] = 0.0
-        for c in range(N_OBSERVED):
-            G[a, c] = 0.0
-    e2_sum = 0.0
-    m_sum = 0
-    i = i0
-    k = meas_epoch[i0]
-    while i < meas_epoch.shape[0] and meas_epoch[i] == k:
-        measure(model[i], x, s[i], sv[i], Qr[i], h, H)
-        innovation(model[i], z[i], h, y6)
-        m = 0
-        e2 = 0.0
-        for c in range(N_COMPONENTS):
-            if math.isnan(z[i, c]) or not sigma[i, c] > 0.0:
-                continue
-            inv = 1.0 / sigma[i, c]
-            for j in range(N_OBSERVED):
-                Hw[m, j] = H[c, j] * inv
-            t[m, 0] = y6[c] * inv
-            e2 += t[m, 0] * t[m, 0]
-            m += 1
-        i += 1
-        if m == 0:
-            continue
-        for a in range(m):                               # S = Hw P Hw^T + I (row gate)
-            for c in range(a + 1):
-                acc = 0.0
-                for j in range(N_OBSERVED):
-                    for l in range(N_OBSERVED):
-                        acc += Hw[a, j] * P[j, l] * Hw[c, l]
-                S[a, c] = acc
-                S[c, a] = acc
-            S[a, a] += 1.0
-        for a in range(m):
-            y6[a] = t[a, 0]
-        if not cholesky_inplace(S, m):
-            continue
-        chol_solve_inplace(S, m, t, 1)
-        nis = 0.0
-        for a in range(m):
-            nis += y6[a] * t[a, 0]
-        if nis > gate[m]:
-            continue
-        e2_sum += e2
-        m_sum += m
-        for a in range(m):                               # G += Hw^T Hw, b += Hw^T y
-            for j in range(N_OBSERVED):
-                b[j] += Hw[a, j] * y6[a]
-                for l in range(N_OBSERVED):
-                    G[j, l] += Hw[a, j] * Hw[a, l]
+    e2_sum, m_sum, _ = epoch_innovations(i0, meas_epoch, model, z, sigma, s, sv, Qr, x, P,
+                                         gate, G, h, H, y6, Hw, S, t, b)
     if m_sum == 0:
         return 0.0, 0
     for a in range(N_OBSERVED):                          # P_66 = L L^T

@@ -38,15 +38,18 @@ log = logging.getLogger(__name__)
 #: Bounds (s) of the automatic regular knot spacing.
 SPACING_MIN = 0.1
 SPACING_MAX = 10.0
+#: Scales of the dynamics rule's knot spacing among which the information criterion chooses.
+SPACING_SCALES = (1.0, 2.0, 4.0, 8.0)
 #: Largest accepted ratio of the fit's chi-square per dof to the smoother's.
 MAX_CHI2_RATIO = 2.0
 _TRIL = np.tril_indices(9)
 
 
 def knot_times(epoch_t: np.ndarray, Ps: np.ndarray, q: np.ndarray, row_t: np.ndarray,
-               anomalies: np.ndarray, spacing: float | None) -> np.ndarray:
+               anomalies: np.ndarray, spacing: float | None, scale: float = 1.0
+               ) -> np.ndarray:
     """Interior knot times (s): the anomaly times plus a regular grid of ``spacing`` s, or of
-    the dynamics rule of the module docstring when ``spacing`` is None."""
+    the dynamics rule of the module docstring times ``scale`` when ``spacing`` is None."""
     t0, t1 = float(epoch_t[0]), float(epoch_t[-1])
     if spacing is not None:
         grid = np.arange(t0 + spacing, t1, spacing)
@@ -58,7 +61,7 @@ def knot_times(epoch_t: np.ndarray, Ps: np.ndarray, q: np.ndarray, row_t: np.nda
         qq = np.maximum(q, 1e-12)
         with np.errstate(divide="ignore", invalid="ignore"):
             d = np.minimum((20.0 * var_p / qq) ** 0.2, (3.0 * var_v / qq) ** (1.0 / 3.0))
-        d = np.clip(np.nan_to_num(d, nan=SPACING_MAX, posinf=SPACING_MAX), lo,
+        d = np.clip(scale * np.nan_to_num(d, nan=SPACING_MAX, posinf=SPACING_MAX), lo,
                     max(lo, SPACING_MAX))
         out, t = [], t0
         while True:
@@ -68,6 +71,50 @@ def knot_times(epoch_t: np.ndarray, Ps: np.ndarray, q: np.ndarray, row_t: np.nda
             out.append(t)
         grid = np.asarray(out)
     return np.union1d(grid, anomalies)
+
+
+def _best_fit(batch: MeasurementBatch, epoch_t, meas_epoch, xs, Ps, used, q, anomalies,
+              spacing: float | None, prior: tuple | None):
+    """The batch fit on the knots of ``spacing``, or, when it is None, the one of the dynamics
+    rule scaled by :data:`SPACING_SCALES` with the least Bayesian information criterion
+    ``chi2 + 3 n_coef ln(n)`` (the rule sets where knots are needed, the criterion how many
+    the data support: denser knots than that fit the noise and the velocity suffers), going
+    sparser only while the fit stays within the smoother's uncertainty (:func:`_agrees`).
+    The rule's own knots are the reference: where the smoother is the weaker estimate (range
+    rates alone) it is the fit that corrects it, so the smoother cannot veto that one."""
+    best, best_bic = None, np.inf
+    n = max(int(used.sum()), 2)
+    for scale in (1.0,) if spacing is not None else SPACING_SCALES:
+        knots = knot_times(epoch_t, Ps, q, batch.t, anomalies, spacing, scale)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)    # a ridge = unobservable: no
+            fit = fit_spline(batch.t, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                             batch.Qr, interior_knots=knots, x_init=xs[meas_epoch], use=used,
+                             prior=prior)
+        bic = fit.chi2 + fit.coef.size * np.log(n)
+        if best is not None and not (bic < best_bic and _agrees(fit, epoch_t, xs, Ps)):
+            break                                  # sparser knots only fit worse from here
+        best, best_bic = fit, bic
+    return best
+
+
+def _agrees(fit, epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray) -> bool:
+    """Whether a sparser fit stays within the smoother's own uncertainty: the mean squared
+    Mahalanobis distance of its position and velocity from the smoothed ones (under the
+    smoother's covariance) at most the dimension, 6. Both use the same data, so a fit that
+    strays further is biased (too few knots for a manoeuvre where the data are thin): the
+    information criterion, a global count, cannot see it there."""
+    inside = np.flatnonzero((epoch_t >= fit.knots[0]) & (epoch_t <= fit.knots[-1]))
+    inside = inside[:: max(1, inside.size // 2000)]          # a sample is enough
+    x_fit, _ = fit.evaluate(epoch_t[inside])
+    d = x_fit[:, :6] - xs[inside, :6]
+    P = np.zeros((inside.size, 9, 9))
+    P[:, _TRIL[0], _TRIL[1]] = Ps[inside]
+    P = P + np.tril(P, -1).transpose(0, 2, 1)
+    m2 = np.einsum("ki,ki->k", d, np.linalg.solve(P[:, :6, :6], d[..., None])[..., 0])
+    log.info("spline fit: %d coefficients, mean squared Mahalanobis distance %.3g from the "
+             "smoother", fit.coef.size, float(np.mean(m2)))
+    return bool(np.mean(m2) <= 6.0)
 
 
 def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.ndarray,
@@ -82,13 +129,8 @@ def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.n
     given initial state when the span was started from it, else None."""
     if xs.shape[1] != 9:                 # the fit is of the 9-state kinematics only
         return xs, Ps, res, hph
-    knots = knot_times(epoch_t, Ps, q, batch.t, anomalies, spacing)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", RuntimeWarning)    # a ridge = unobservable: no
-            fit = fit_spline(batch.t, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-                             batch.Qr, interior_knots=knots, x_init=xs[meas_epoch], use=used,
-                             prior=prior)
+        fit = _best_fit(batch, epoch_t, meas_epoch, xs, Ps, used, q, anomalies, spacing, prior)
     except (ValueError, ArithmeticError, RuntimeWarning, np.linalg.LinAlgError) as exc:
         log.warning("spline fit failed (%s): the smoothed track is kept", exc)
         return xs, Ps, res, hph
