@@ -252,6 +252,7 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     mu = mu0.copy()
     Pi = np.empty((r, r))
     swork = np.empty((2, r, r))
+    last_dt = -1.0
     cbar = np.empty(r)
     X0 = np.empty((r, n))
     P0m = np.empty((r, n, n))
@@ -293,7 +294,9 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     for k in range(E):
         dt = epoch_t[k] - epoch_t[k - 1] if k > 0 else 0.0
         if k > 0:
-            switch_matrix(Lam, dt, Pi, swork)
+            if dt != last_dt:                               # regular steps: computed once
+                switch_matrix(Lam, dt, Pi, swork)
+                last_dt = dt
             for j in range(r):                              # 1. mixing
                 acc = 0.0
                 for a in range(r):
@@ -471,6 +474,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     W = np.empty((r, r))
     Pi = np.empty((r, r))
     swork = np.empty((2, r, r))
+    last_dt = -1.0
     cbar = np.empty(r)
     F = np.empty((n, n))
     Qm = np.empty((n, n))
@@ -491,7 +495,9 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     pack(T, Ps[E - 1])
     for k in range(E - 2, -1, -1):
         dt = epoch_t[k + 1] - epoch_t[k]
-        switch_matrix(Lam, dt, Pi, swork)
+        if dt != last_dt:                                   # regular steps: computed once
+            switch_matrix(Lam, dt, Pi, swork)
+            last_dt = dt
         for i in range(r):
             acc = 0.0
             for j in range(r):
