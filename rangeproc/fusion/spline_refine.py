@@ -16,11 +16,13 @@ intervals in manoeuvres and where the data are precise, long ones in cruise. ``D
 ``[max(SPACING_MIN, 4 row steps), SPACING_MAX]``.
 
 Safeguards (each falls back to the smoothed track with a logged warning, never an error): a
-fit that raises (no usable rows, singular system), a non-finite result, or one inconsistent
-with the data: whitened chi-square per degree of freedom more than :data:`MAX_CHI2_RATIO` times
-the smoother's (per used component, at least 1). The fit's covariance assumes the sigmas; when
-its chi-square per degree of freedom exceeds 1 the covariance is scaled by it (the usual
-variance-of-unit-weight correction), so misfit shows in the sigmas.
+fit that raises (no usable rows, singular system), a non-finite result, one inconsistent
+with the data (whitened chi-square per degree of freedom more than :data:`MAX_CHI2_RATIO`
+times the smoother's, per used component, at least 1), or one that strays from the smoothed
+track beyond its uncertainty without fitting the data better than it does. The fit's
+covariance assumes the sigmas; when its chi-square per degree of freedom exceeds 1 the
+covariance is scaled by it (the usual variance-of-unit-weight correction), so misfit shows in
+the sigmas.
 """
 from __future__ import annotations
 
@@ -142,6 +144,14 @@ def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.n
             or ratio > MAX_CHI2_RATIO * max(chi2_smooth, 1.0):
         log.warning("spline fit inconsistent (chi2/dof %.3g against the smoother's %.3g): "
                     "the smoothed track is kept", ratio, chi2_smooth)
+        return xs, Ps, res, hph
+    if ratio > chi2_smooth and not _agrees(fit, epoch_t, xs, Ps):
+        # it contradicts the smoother without explaining the data better: the weaker
+        # estimate (e.g. across GPS dropouts with radars alone); where the smoother is the
+        # weaker one (range rates alone) the fit explains the data better and is kept
+        log.warning("spline fit strays from the smoothed track without fitting the data better "
+                    "(chi2/dof %.3g against %.3g): the smoothed track is kept", ratio,
+                    chi2_smooth)
         return xs, Ps, res, hph
     inside = (epoch_t >= fit.knots[0]) & (epoch_t <= fit.knots[-1])
     x_fit, P_fit = fit.evaluate(epoch_t[inside])
