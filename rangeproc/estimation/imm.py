@@ -49,6 +49,7 @@ from rangeproc.estimation.forward import (
     gated_update,
     row_moments,
 )
+from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.models.motion import N_KINEMATIC
@@ -325,8 +326,12 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 PP[j] = P0m[j]
                 w = turn_rate(X[j]) if codes[j] == CT else 0.0
                 omega[k, j] = w
-                model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
-                _predict(F, Qm, X[j], PP[j], xt, T)
+                if codes[j] == CA:                          # the single filter's arithmetic
+                    predict_state(X[j], dt)
+                    predict_cov(PP[j], T, dt, q_steps[k])
+                else:
+                    model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
+                    _predict(F, Qm, X[j], PP[j], xt, T)
         else:
             for j in range(r):
                 cbar[j] = mu[j]
