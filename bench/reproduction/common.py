@@ -303,6 +303,14 @@ def run_cases(workdir: Path, cases: Mapping[str, Mapping[str, Any]],
             if filter_available(keys.get("filter", "ekf"))}
 
 
+def errors_by_case(workdir: Path, cases: Mapping[str, Mapping[str, Any]], sensor: Sensor,
+                   truth: Truth, **config_kw: Any) -> tuple[dict[str, Case], dict[str, Errors]]:
+    """Write one sensor's log, run every case on it and score each against ``truth``."""
+    write_logs(workdir, [sensor])
+    runs = run_cases(workdir, cases, [sensor], **config_kw)
+    return runs, {label: track_errors(case.fused, truth) for label, case in runs.items()}
+
+
 def describe_cases(cases: Mapping[str, Mapping[str, Any]]) -> str:
     """'Cases: `label`: {keys}; ...' plus which were skipped because rangeproc does not
     have their filter yet."""

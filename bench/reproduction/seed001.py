@@ -82,9 +82,7 @@ def run(workdir: Path, figdir: Path | None = None) -> tuple[dict[str, str], list
     """Run the experiment in ``workdir``; figures to ``figdir`` (default workdir)."""
     rng = np.random.default_rng(SEED)
     truth, gps = scenario(rng)
-    c.write_logs(workdir, [gps])
-    runs = c.run_cases(workdir, CASES, [gps])
-    errs = {label: c.track_errors(case.fused, truth) for label, case in runs.items()}
+    runs, errs = c.errors_by_case(workdir, CASES, gps, truth)
     rej, meas = c.rejected_components(runs["ukf"], "G1", *BURST)
     t_raw = gps.log["time"].to_numpy(float)
     raw = (t_raw - c.T0, c.norm(c.log_enu(gps.log) - truth.at(t_raw)[0]))

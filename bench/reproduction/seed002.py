@@ -74,9 +74,7 @@ def run(workdir: Path, figdir: Path | None = None) -> tuple[dict[str, str], list
     """Run the experiment in ``workdir``; figures to ``figdir`` (default workdir)."""
     rng = np.random.default_rng(SEED)
     truth, gps = scenario(rng)
-    c.write_logs(workdir, [gps])
-    errs = {label: c.track_errors(case.fused, truth)
-            for label, case in c.run_cases(workdir, CASES, [gps], rate_hz=1.0).items()}
+    errs = c.errors_by_case(workdir, CASES, gps, truth, rate_hz=1.0)[1]
     raw = raw_errors(gps, truth)
     png = plot(errs, raw, (figdir or workdir) / "seed002_error.png")
     late = {k: e.rmse("pos", SETTLED, axes=slice(0, 2)) for k, e in errs.items()}

@@ -73,9 +73,7 @@ def run(workdir: Path, figdir: Path | None = None) -> tuple[dict[str, str], list
     """Run the experiment in ``workdir``; figures to ``figdir`` (default workdir)."""
     rng = np.random.default_rng(SEED)
     truth, gps = scenario(rng)
-    c.write_logs(workdir, [gps])
-    runs = c.run_cases(workdir, CASES, [gps])
-    errs = {k: c.track_errors(r.fused, truth) for k, r in runs.items()}
+    runs, errs = c.errors_by_case(workdir, CASES, gps, truth)
     png = plot(errs, truth, (figdir or workdir) / "seed004_maneuver.png")
     imposed = {k: r.output.summary["targets"]["T1"]["maneuver_norm"]["imposed"]
                for k, r in runs.items()}
