@@ -22,6 +22,7 @@ import rangeproc
 from rangeproc.config import Config, SensorSettings, TargetSettings, load_config
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
+from rangeproc.editing.table import edit_table
 from rangeproc.errors import ConfigError, DataError
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm import MODEL_NAMES
@@ -260,6 +261,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     with staged_outputs(out_dir) as stage:
         with clock.stage("write"):
             write_parquet(fused_table(tracks), stage / "fused.parquet")
+            write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
         with clock.stage("report", 3 + len(residuals)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
                                    sites=sites,
@@ -276,7 +278,8 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         }
         with clock.stage("write"):
             write_json(summary, stage / "summary.json")
-    written = [out_dir / "fused.parquet", *(out_dir / "report" / f.name for f in figures),
+    written = [out_dir / "fused.parquet", out_dir / "edits.parquet",
+               *(out_dir / "report" / f.name for f in figures),
                out_dir / "summary.json"]
     return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary, tuple(written),
                      dict(clock.seconds))
@@ -287,9 +290,10 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
     """Yield a hidden staging folder inside ``out_dir``; publish its contents on success.
 
     Every output of a run is first written into the staging folder; only when all of them are
-    complete are they moved into place (``report/`` swapped as a whole, ``fused.parquet``, then
-    ``summary.json`` last, each by an atomic rename). A run that fails at any stage therefore
-    leaves the previous run's outputs untouched and no partial or mixed set behind.
+    complete are they moved into place (``report/`` swapped as a whole, ``fused.parquet``,
+    ``edits.parquet``, then ``summary.json`` last, each by an atomic rename). A run that
+    fails at any stage therefore leaves the previous run's outputs untouched and no partial or
+    mixed set behind.
     """
     stage = Path(tempfile.mkdtemp(prefix=".rangeproc-staging-", dir=out_dir))
     try:
@@ -299,6 +303,7 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
             os.replace(out_dir / "report", old)
         os.replace(stage / "report", out_dir / "report")
         os.replace(stage / "fused.parquet", out_dir / "fused.parquet")
+        os.replace(stage / "edits.parquet", out_dir / "edits.parquet")
         os.replace(stage / "summary.json", out_dir / "summary.json")
     finally:
         shutil.rmtree(stage, ignore_errors=True)
