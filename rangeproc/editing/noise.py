@@ -27,6 +27,8 @@ from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
 
 MAD_TO_SIGMA = 1.482602218505602
+#: Codes of :func:`residual_sigma`'s down-weighting reasons.
+BURST, HUBER = 1, 2
 MIN_ROWS = 20
 
 
@@ -74,7 +76,8 @@ def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
 
 def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
                    used: np.ndarray, *, window: int = 51, burst_ratio: float = 2.0,
-                   huber_k: float = 2.0) -> tuple[np.ndarray, dict[tuple[int, int], float]]:
+                   huber_k: float = 2.0
+                   ) -> tuple[np.ndarray, dict[tuple[int, int], float], np.ndarray]:
     """Re-estimate per-row sigmas from smoothed residuals.
 
     Args:
@@ -86,9 +89,13 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
         huber_k: Huber threshold on the normalised residual.
 
     Returns:
-        sigma (N, 6) and the global estimate per (sensor index, component).
+        sigma (N, 6), the global estimate per (sensor index, component), and why (N, 6) int8
+        each component's sigma exceeds that global estimate: :data:`BURST` (the local scale
+        of a burst), :data:`HUBER` (down-weighted for a large two-sided smoother residual),
+        0 (neither; also where data were too few to estimate).
     """
     sigma = batch.sigma.copy()
+    why = np.zeros(sigma.shape, dtype=np.int8)
     found: dict[tuple[int, int], float] = {}
     for sensor in np.unique(batch.sensor):
         rows = np.flatnonzero(batch.sensor == sensor)
@@ -120,7 +127,9 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
             u = np.abs(np.nan_to_num(r)) / sig
             sig = sig * np.sqrt(np.maximum(1.0, u / huber_k))
             sigma[rows, c] = sig
-    return sigma, found
+            why[rows[burst], c] = BURST
+            why[rows[~burst & (u > huber_k)], c] = HUBER
+    return sigma, found, why
 
 
 #: E[x^2 | |x| < 4] for a standard normal: the clipped RMS is divided by its square root.

@@ -138,7 +138,9 @@ class FusionResult:
     index of spans that could not be started (no position fix) and are not in ``batch``;
     maneuver_norm: the norm (m/s^2) the constrained ASKF imposed, None when unconstrained;
     model_prob: (E, r) the IMM's smoothed model probabilities, model_names their models (None
-    and () for the other filters).
+    and () for the other filters); down_weight: (N, 6) int8, why the final pass's sigma of a
+    component exceeds its sensor's global noise estimate (``editing.noise.BURST`` / ``HUBER``;
+    None without noise adaptation).
     """
 
     epoch_t: np.ndarray
@@ -160,6 +162,7 @@ class FusionResult:
     maneuver_norm: float | None = None
     model_prob: np.ndarray | None = None
     model_names: tuple[str, ...] = ()
+    down_weight: np.ndarray | None = None
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -421,6 +424,7 @@ def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResul
         spans=tuple((float(p.batch.t[0]), float(p.batch.t[-1])) for p in parts),
         n_unstarted=unstarted, maneuver_norm=parts[0].maneuver_norm,
         model_prob=cat("model_prob") if parts[0].model_prob is not None else None,
+        down_weight=cat("down_weight") if parts[0].down_weight is not None else None,
         model_names=parts[0].model_names)
 
 
@@ -475,9 +479,10 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     def refine(rho: float | None, tick=tick):
         """The refinement passes from the first pass, constrained to ``rho`` when given."""
         out, b, qq, noise = first, batch, q, {}
+        why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
             if settings.adapt_noise:
-                sigma, noise = residual_sigma(b, out.res, out.hph, out.used)
+                sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
             if settings.process_noise is None and out.em is not None:
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
@@ -485,13 +490,13 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             start = imm_start(first, x0, P0) if settings.imm_models else (x0, P0)
             out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
-        return out, qq, noise
+        return out, qq, noise, why
 
-    out, q, noise = refine(rho)
+    out, q, noise, why = refine(rho)
     if rho is not None and settings.noise_passes > 0:
         free = refine(None, tick=lambda *a, **k: None)
         if not constraint_agrees(out, free[0], rho):
-            rho, (out, q, noise) = None, free
+            rho, (out, q, noise, why) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
     if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
         xs, Ps, res, hph = spline_refine(
@@ -500,5 +505,5 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
                         res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,
-                        maneuver_norm=rho, model_prob=out.model_prob,
+                        maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
                         model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models))

@@ -1,5 +1,5 @@
-"""edits.parquet: every removed or rejected measurement component with its reason, row in its
-file and residual; the summary counts agree with it."""
+"""edits.parquet: every removed, rejected or down-weighted measurement component with its
+reason, row in its file and residual; the summary counts agree with it."""
 from __future__ import annotations
 
 import json
@@ -31,7 +31,8 @@ def test_every_edit_and_rejection_is_in_edits_parquet(scenario, cli, explain) ->
     assert abs(limit.iloc[0]["time"] - df.loc[wild, "time"]) < 1e-6
     for sid, ss in summary["sensors"].items():
         mine = edits[edits.sensor == sid]
-        screened = mine[mine.reason != "gate"].reason.value_counts().to_dict()
+        screened = mine[~mine.reason.isin(["gate", "burst", "residual"])]
+        screened = screened.reason.value_counts().to_dict()
         assert screened == ss["n_edited"], sid
         gated = mine[mine.reason == "gate"].component.value_counts().to_dict()
         expected = {k: v for k, v in ss.get("n_components_rejected", {}).items() if v}
@@ -43,3 +44,9 @@ def test_every_edit_and_rejection_is_in_edits_parquet(scenario, cli, explain) ->
     assert np.median(np.abs(gate.normalised_residual)) > 3.0
     assert not ((edits.sensor == "R1") & (edits.row == wild + 1) & (edits.reason == "gate")
                 & (edits.component == "range")).any()
+    assert (gate.weight == 0).all() and (edits[edits.reason == "limit"].weight == 0).all()
+    # the sample's GPS noise burst: its fixes are down-weighted, not rejected
+    burst = edits[(edits.reason == "burst") & (edits.sensor == "G1")]
+    assert len(burst) > 10 and (burst.weight < 0.5).all()
+    huber = edits[edits.reason == "residual"]
+    assert (huber.weight < 1.0).all() and (np.abs(huber.normalised_residual) > 1.5).mean() > 0.9
