@@ -204,6 +204,20 @@ def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.nd
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def row_workspace(n: int):
+    """Work arrays of :func:`row_moments` and :func:`gated_update` for an n-state filter:
+    ``(h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
+    xsig)`` (shared by the Kalman and IMM loops, so one update serves both)."""
+    m = N_COMPONENTS
+    return (np.empty(m), np.zeros((m, n)), np.empty(m), np.empty(m),
+            np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64), np.empty(m),
+            np.empty((m, n)), np.empty((m, m)), np.zeros((m, N_OBSERVED)), np.empty(m),
+            np.empty((m, n)), np.empty((m, m)), np.empty((m, n)), np.empty((n, n)),
+            np.empty((n, m)), np.empty(m), np.empty(m), np.empty((m, m)), np.empty((n, n)),
+            np.empty((2 * n + 1, m)), np.empty(n))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
                  Hs: np.ndarray, sel: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
                  gate: np.ndarray, joseph: bool, yw: np.ndarray, HP: np.ndarray,
@@ -377,26 +391,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     ll_rows = np.zeros(N)
     x = x0.copy()
     P = P0.copy()
-    h = np.empty(N_COMPONENTS)
-    H = np.zeros((N_COMPONENTS, n))
-    y6 = np.empty(N_COMPONENTS)
-    y = np.empty(N_COMPONENTS)
-    idx = np.empty(N_COMPONENTS, dtype=np.int64)
-    sel = np.empty(N_COMPONENTS, dtype=np.int64)
-    sig = np.empty(N_COMPONENTS)
-    C = np.empty((N_COMPONENTS, n))
-    Z = np.empty((N_COMPONENTS, N_COMPONENTS))
-    Hs = np.zeros((N_COMPONENTS, N_OBSERVED))
-    yw = np.empty(N_COMPONENTS)
-    HP = np.empty((N_COMPONENTS, n))
-    S = np.empty((N_COMPONENTS, N_COMPONENTS))
-    Kt = np.empty((N_COMPONENTS, n))
-    AP = np.empty((n, n))
-    APHt = np.empty((n, N_COMPONENTS))
-    sdiag = np.empty(N_COMPONENTS)
-    L = np.empty((n, n))
-    Zs = np.empty((2 * n + 1, N_COMPONENTS))
-    xsig = np.empty(n)
+    (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
+     xsig) = row_workspace(n)
     use_lin = x_lin.shape[0] == E and method == EKF
     adapt = adapt_window > 0
     G = (np.max(sensor) + 1 if N > 0 else 1) * N_COMPONENTS if adapt else 1
@@ -405,8 +401,6 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     sh_pos = np.zeros(G, dtype=np.int64)
     sh_acc = np.zeros((G, 2))
     sigma_used = np.full((N if adapt else 0, N_COMPONENTS), np.nan)
-    ew = np.empty(N_COMPONENTS)
-    Sinv = np.empty((N_COMPONENTS, N_COMPONENTS))
     sig_row = np.empty(N_COMPONENTS)
     Pu = np.empty(n)
     y_raw = np.empty(N_COMPONENTS)

@@ -48,6 +48,7 @@ from rangeproc.estimation.forward import (
     MAX_RESET_INFLATION,
     gated_update,
     row_moments,
+    row_workspace,
 )
 from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
@@ -263,28 +264,8 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     xt = np.empty(n)
     T = np.empty((n, n))
     dx = np.empty(n)
-    h = np.empty(N_COMPONENTS)
-    H = np.zeros((N_COMPONENTS, n))
-    y6 = np.empty(N_COMPONENTS)
-    y = np.empty(N_COMPONENTS)
-    idx = np.empty(N_COMPONENTS, dtype=np.int64)
-    sel = np.empty(N_COMPONENTS, dtype=np.int64)
-    sig = np.empty(N_COMPONENTS)
-    C = np.empty((N_COMPONENTS, n))
-    Z = np.empty((N_COMPONENTS, N_COMPONENTS))
-    Hs = np.zeros((N_COMPONENTS, 6))
-    yw = np.empty(N_COMPONENTS)
-    HP = np.empty((N_COMPONENTS, n))
-    S = np.empty((N_COMPONENTS, N_COMPONENTS))
-    Kt = np.empty((N_COMPONENTS, n))
-    AP = np.empty((n, n))
-    APHt = np.empty((n, N_COMPONENTS))
-    sdiag = np.empty(N_COMPONENTS)
-    ew = np.empty(N_COMPONENTS)
-    Sinv = np.empty((N_COMPONENTS, N_COMPONENTS))
-    L = np.empty((n, n))
-    Zs = np.empty((2 * n + 1, N_COMPONENTS))
-    xsig = np.empty(n)
+    (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
+     xsig) = row_workspace(n)
     ukf = np.zeros(3)
     use_lin = x_lin.shape[0] == E
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
