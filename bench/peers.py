@@ -144,7 +144,8 @@ def rangeproc_imm_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarra
     """The timed IMM call: ``args`` = the first 16 ``kalman_forward`` arguments (rows, prior,
     q, gate, guard, ``x_lin``) + model codes, switching generator, initial probabilities;
     IMM filter + Kim's smoother (pruning as the pipeline). Returns (xf, xs, Ps packed)."""
-    from rangeproc.estimation.imm import imm_forward, imm_smooth
+    from rangeproc.estimation.imm import imm_forward
+    from rangeproc.estimation.imm_smoother import imm_smooth
     from rangeproc.fusion.centralised import IMM_PRUNE
     codes, lam = args[16], args[17]
     out = imm_forward(*args)

@@ -313,6 +313,57 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
     return nis, True, logdet
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def update_row(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
+               Hs: np.ndarray, idx: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
+               gate: np.ndarray, joseph: bool, stats: bool, sel: np.ndarray, sig: np.ndarray,
+               yw: np.ndarray, HP: np.ndarray, S: np.ndarray, Kt: np.ndarray, AP: np.ndarray,
+               APHt: np.ndarray, sdiag: np.ndarray, ew: np.ndarray, Sinv: np.ndarray):
+    """Gate one row's ``m`` components (sigmas ``sig_row``) and update ``x, P`` with what
+    passes: the whole row, else the components that pass their own marginal test, gated
+    again (module docstring).
+
+    Returns ``(nis, accepted, n_accepted, mask, loglik)``: the row's chi-square, whether any
+    component updated, how many (``sel[:n]``, ``sig[:n]`` hold them), the bit mask of the
+    rejected components (bit = component index, all of them when none passed) and the row's
+    Gaussian log-likelihood term (a rejected component counted at the gate).
+    """
+    for a in range(m):
+        sel[a] = a
+        sig[a] = sig_row[a]
+    val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, x, P, gate, joseph, yw, HP, S, Kt,
+                                   AP, APHt, sdiag, stats, ew, Sinv)
+    n_acc = m if ok else 0
+    mask = 0
+    ll = 0.0
+    if not ok and m > 1 and math.isfinite(val):
+        # drop components failing their own marginal test, gate the rest again
+        mk = 0
+        for a in range(m):
+            if yw[a] * yw[a] / sdiag[a] <= gate[1]:
+                sel[mk] = a
+                sig[mk] = sig_row[a]
+                mk += 1
+            else:
+                mask |= 1 << idx[a]
+        if 0 < mk < m:
+            val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, x, P, gate, joseph,
+                                              yw, HP, S, Kt, AP, APHt, sdiag, stats, ew, Sinv)
+            if ok2:
+                ok = True
+                n_acc = mk
+                ll = -0.5 * (val2 + logdet2 + mk * LOG_2PI + (m - mk) * gate[1])
+        if not ok:
+            mask = 0
+    if ok and mask == 0:
+        ll = -0.5 * (val + logdet + m * LOG_2PI)
+    if not ok:
+        for a in range(m):
+            mask |= 1 << idx[a]
+        ll = -0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
+    return val, ok, n_acc, mask, ll
+
+
 @njit(cache=True, error_model="numpy")
 def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                    z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
@@ -490,7 +541,6 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                         x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig, h,
                         H, y6, y, C, Z, Hs)
             for a in range(m):
-                sel[a] = a
                 sig_row[a] = sigma[i, idx[a]]
                 y_raw[a] = y[a]
             if adapt:
@@ -504,36 +554,12 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     if rss_n[g] >= SPL_RMS_MIN:
                         rms = math.sqrt(rss[g] / (rss_n[g] - 1))
                         sig_row[a] = min(max(sig_row[a], rms), SPL_MAX_RATIO * sig_row[a])
-            for a in range(m):
-                sig[a] = sig_row[a]
-            stats = adapt or spline
-            val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, x, P, gate, joseph,
-                                           yw, HP, S, Kt, AP, APHt, sdiag, stats, ew, Sinv)
-            n_acc = m if ok else 0
+            val, ok, n_acc, mask, ll_row = update_row(
+                y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, adapt or spline, sel, sig,
+                yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
             nis[i] = val
-            mask = 0
-            if not ok and m > 1 and math.isfinite(val):
-                # drop components failing their own marginal test, gate the rest again
-                mk = 0
-                for a in range(m):
-                    if yw[a] * yw[a] / sdiag[a] <= gate[1]:
-                        sel[mk] = a
-                        sig[mk] = sig_row[a]
-                        mk += 1
-                    else:
-                        mask |= 1 << idx[a]
-                if 0 < mk < m:
-                    val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, x, P, gate,
-                                                      joseph, yw, HP, S, Kt, AP, APHt, sdiag,
-                                                      stats, ew, Sinv)
-                    if ok2:
-                        ok = True
-                        n_acc = mk
-                        loglik -= 0.5 * (val2 + logdet2 + mk * LOG_2PI + (m - mk) * gate[1])
-                if not ok:
-                    mask = 0
-            if ok and mask == 0:
-                loglik -= 0.5 * (val + logdet + m * LOG_2PI)
+            rejected[i] = mask
+            loglik += ll_row
             if adapt and ok:                             # Sage-Husa window, accepted only
                 for b in range(n_acc):
                     a = sel[b]
@@ -549,13 +575,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     rss_n[g] += 1
             if ok:
                 consecutive[sensor[i]] = 0
-                rejected[i] = mask
             else:
-                for a in range(m):
-                    mask |= 1 << idx[a]
-                rejected[i] = mask
                 consecutive[sensor[i]] += 1
-                loglik -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
                         and last_reset != k:
                     factor = min(max(reset_inflation, 4.0 * val / gate[m]),

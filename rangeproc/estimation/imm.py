@@ -33,7 +33,7 @@ depend on the sampling rate. The smoother is Kim's fixed-interval IMM smoother (
 Shalom, Li & Kirubarajan 2001 sec. 11.6.8): for each pair (model j at k, model i at k+1) an RTS
 step with model i's transition from model j's filtered estimate, the pair weighted by
 ``mu_k|k(j) pi_ji mu_k+1|N(i) / c_i``; smoothed model probabilities are those weights'
-marginals.
+marginals (``estimation.imm_smoother``).
 """
 from __future__ import annotations
 
@@ -44,14 +44,13 @@ from numba import njit
 
 from rangeproc.estimation.forward import (
     EKF,
-    LOG_2PI,
     MAX_RESET_INFLATION,
-    gated_update,
     row_moments,
     row_workspace,
+    update_row,
 )
 from rangeproc.estimation.kernels import predict_cov, predict_state
-from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+from rangeproc.estimation.linalg import pack
 from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.models.motion import N_KINEMATIC
 from rangeproc.settings import IMM_MODELS
@@ -212,6 +211,29 @@ def _predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.
             P[j, i] = acc
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
+             dx: np.ndarray) -> None:
+    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``."""
+    r, n = X.shape
+    for a in range(n):
+        acc = 0.0
+        for j in range(r):
+            acc += w[j] * X[j, a]
+        x[a] = acc
+    for a in range(n):
+        for b in range(n):
+            out[a, b] = 0.0
+    for j in range(r):
+        if w[j] == 0.0:
+            continue
+        for a in range(n):
+            dx[a] = X[j, a] - x[a]
+        for a in range(n):
+            for b in range(n):
+                out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
+
+
 @njit(cache=True, error_model="numpy")
 def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
@@ -266,6 +288,8 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     dx = np.empty(n)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
      xsig) = row_workspace(n)
+    sig_row = np.empty(N_COMPONENTS)
+    wmix = np.empty(r)
     ukf = np.zeros(3)
     use_lin = x_lin.shape[0] == E
     consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
@@ -285,23 +309,9 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                     acc += Pi[a, j] * mu[a]
                 cbar[j] = max(acc, 1e-300)
             for j in range(r):
-                for b in range(n):
-                    acc = 0.0
-                    for a in range(r):
-                        acc += Pi[a, j] * mu[a] / cbar[j] * X[a, b]
-                    X0[j, b] = acc
-                for b in range(n):
-                    for c in range(n):
-                        P0m[j, b, c] = 0.0
                 for a in range(r):
-                    w = Pi[a, j] * mu[a] / cbar[j]
-                    if w == 0.0:
-                        continue
-                    for b in range(n):
-                        dx[b] = X[a, b] - X0[j, b]
-                    for b in range(n):
-                        for c in range(n):
-                            P0m[j, b, c] += w * (PP[a, b, c] + dx[b] * dx[c])
+                    wmix[a] = Pi[a, j] * mu[a] / cbar[j]
+                combine(X, PP, wmix, X0[j], P0m[j], dx)
             for j in range(r):                              # 2. model-conditioned prediction
                 X[j] = X0[j]
                 PP[j] = P0m[j]
@@ -331,42 +341,16 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
             if m == 0:
                 i += 1
                 continue
+            for a in range(m):
+                sig_row[a] = sigma[i, idx[a]]
             for j in range(r):
                 row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
                             x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L, Zs,
                             xsig, h, H, y6, y, C, Z, Hs)
-                for a in range(m):
-                    sel[a] = a
-                    sig[a] = sigma[i, idx[a]]
-                val, ok, logdet = gated_update(y, sig, C, Z, Hs, sel, m, X[j], PP[j], gate,
-                                               True, yw, HP, S, Kt, AP, APHt, sdiag, False,
-                                               ew, Sinv)
-                mask = 0
-                if not ok and m > 1 and math.isfinite(val):
-                    mk = 0
-                    for a in range(m):
-                        if yw[a] * yw[a] / sdiag[a] <= gate[1]:
-                            sel[mk] = a
-                            sig[mk] = sigma[i, idx[a]]
-                            mk += 1
-                        else:
-                            mask |= 1 << idx[a]
-                    if 0 < mk < m:
-                        val2, ok2, logdet2 = gated_update(y, sig, C, Z, Hs, sel, mk, X[j],
-                                                          PP[j], gate, True, yw, HP, S, Kt, AP,
-                                                          APHt, sdiag, False, ew, Sinv)
-                        if ok2:
-                            ok = True
-                            ll[j] -= 0.5 * (val2 + logdet2 + mk * LOG_2PI
-                                            + (m - mk) * gate[1])
-                    if not ok:
-                        mask = 0
-                if ok and mask == 0:
-                    ll[j] -= 0.5 * (val + logdet + m * LOG_2PI)
-                if not ok:
-                    for a in range(m):
-                        mask |= 1 << idx[a]
-                    ll[j] -= 0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
+                val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
+                                                      PP[j], gate, True, False, sel, sig, yw,
+                                                      HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                ll[j] += ll_row
                 if j == best:
                     nis[i] = val
                     rejected[i] = mask
@@ -401,22 +385,10 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
         for j in range(r):
             mu[j] /= tot
         loglik += top + math.log(tot)
-        for b in range(n):                                  # combination
-            acc = 0.0
-            for j in range(r):
-                acc += mu[j] * X[j, b]
-            xt[b] = acc
-            if not math.isfinite(acc):
-                raise FloatingPointError("non-finite state in the IMM filter")
+        combine(X, PP, mu, xt, T, dx)                      # combination
         for b in range(n):
-            for c in range(n):
-                T[b, c] = 0.0
-        for j in range(r):
-            for b in range(n):
-                dx[b] = X[j, b] - xt[b]
-            for b in range(n):
-                for c in range(n):
-                    T[b, c] += mu[j] * (PP[j, b, c] + dx[b] * dx[c])
+            if not math.isfinite(xt[b]):
+                raise FloatingPointError("non-finite state in the IMM filter")
         xf[k] = xt
         pack(T, Pf[k])
         mu_out[k] = mu
@@ -424,218 +396,3 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
             xm[k, j] = X[j]
             pack(PP[j], Pm[k, j])
     return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
-
-
-@njit(cache=True, error_model="numpy")
-def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarray,
-               omega: np.ndarray, q_steps: np.ndarray, codes: np.ndarray, Lam: np.ndarray,
-               prune: float):
-    """Kim's fixed-interval IMM smoother over :func:`imm_forward`'s model-conditioned output.
-
-    A pair (j at k, i at k+1) whose weight is below ``prune`` times the total weight of model
-    j's pairs is skipped: it would move model j's smoothed mixture by that fraction of the
-    pair means' difference (a model switch between two epochs a fraction of a second apart
-    is rare, so most cross pairs are negligible except around a manoeuvre's onset). A model
-    whose smoothed probability is below ``prune`` is left out of the combination and carries
-    the combined smoothed estimate back to the step before (not its own filtered one: the
-    chain of a model that matters again earlier in the flight must not restart from its
-    filter).
-
-    Returns:
-        xs (E, n), Ps (E, n(n+1)/2) the combined smoothed states and packed covariances, and
-        mus (E, r) the smoothed model probabilities.
-    """
-    E, r, n = xm.shape
-    npk = n * (n + 1) // 2
-    xs = np.empty((E, n))
-    Ps = np.empty((E, npk))
-    mus = np.empty((E, r))
-    Xn = np.empty((r, n))                                   # smoothed per model at k+1
-    Pn = np.empty((r, n, n))
-    Xk = np.empty((r, n))
-    Pk = np.empty((r, n, n))
-    wc = np.empty(r)                                        # combination weights
-    Xp = np.empty((r, r, n))                                # pair means at k
-    Pp = np.empty((r, r, n, n))
-    W = np.empty((r, r))
-    Pi = np.empty((r, r))
-    swork = np.empty((2, r, r))
-    last_dt = -1.0
-    cbar = np.empty(r)
-    F = np.empty((n, n))
-    Qm = np.empty((n, n))
-    Pf = np.empty((n, n))
-    Ppred = np.empty((n, n))
-    xpred = np.empty(n)
-    FP = np.empty((n, n))
-    Ct = np.empty((n, n))
-    D = np.empty((n, n))
-    dx = np.empty(n)
-    T = np.empty((n, n))
-    for i in range(r):
-        Xn[i] = xm[E - 1, i]
-        unpack(Pm[E - 1, i], Pn[i])
-    for i in range(r):
-        mus[E - 1, i] = mu[E - 1, i]
-    _combine(Xn, Pn, mus[E - 1], xs[E - 1], T, dx)
-    pack(T, Ps[E - 1])
-    for k in range(E - 2, -1, -1):
-        dt = epoch_t[k + 1] - epoch_t[k]
-        if dt != last_dt:                                   # regular steps: computed once
-            switch_matrix(Lam, dt, Pi, swork)
-            last_dt = dt
-        for i in range(r):
-            acc = 0.0
-            for j in range(r):
-                acc += Pi[j, i] * mu[k, j]
-            cbar[i] = max(acc, 1e-300)
-        total = 0.0
-        for j in range(r):
-            row = 0.0
-            for i in range(r):
-                W[j, i] = mu[k, j] * Pi[j, i] * mus[k + 1, i] / cbar[i]
-                row += W[j, i]
-            mus[k, j] = row
-            total += row
-        for j in range(r):
-            mus[k, j] /= total
-            for i in range(r):                              # negligible pairs and models
-                if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
-                    W[j, i] = 0.0
-        for j in range(r):
-            unpack(Pm[k, j], Pf)
-            for i in range(r):
-                if W[j, i] == 0.0:
-                    continue
-                model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
-                _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
-                           dx, Xp[j, i], Pp[j, i])
-        wsum = 0.0
-        for j in range(r):
-            tot = 0.0
-            for i in range(r):
-                tot += W[j, i]
-            wc[j] = mus[k, j] if tot > 0.0 else 0.0
-            wsum += wc[j]
-            if tot <= 0.0:                                  # skipped: filled in below
-                continue
-            for a in range(n):
-                acc = 0.0
-                for i in range(r):
-                    acc += W[j, i] / tot * Xp[j, i, a]
-                Xk[j, a] = acc
-            for a in range(n):
-                for b in range(n):
-                    Pk[j, a, b] = 0.0
-            for i in range(r):
-                if W[j, i] == 0.0:
-                    continue
-                w = W[j, i] / tot
-                for a in range(n):
-                    dx[a] = Xp[j, i, a] - Xk[j, a]
-                for a in range(n):
-                    for b in range(n):
-                        Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
-        for j in range(r):
-            wc[j] /= wsum
-        _combine(Xk, Pk, wc, xs[k], T, dx)
-        pack(T, Ps[k])
-        for j in range(r):
-            if wc[j] > 0.0:
-                Xn[j] = Xk[j]
-                Pn[j] = Pk[j]
-            else:          # a skipped model carries the combined smoothed estimate back: its
-                Xn[j] = xs[k]                # chain must not restart from its filter where
-                Pn[j] = T                    # it matters again earlier in the flight
-    return xs, Ps, mus
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
-               x_next: np.ndarray, P_next: np.ndarray, x_pred: np.ndarray, P_pred: np.ndarray,
-               FP: np.ndarray, C: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
-               x_out: np.ndarray, P_out: np.ndarray) -> None:
-    """One RTS step of a model pair: from the filtered ``x_f, P_f`` through ``F, Q`` to the
-    smoothed ``x_next, P_next`` of the next epoch:
-
-        C = P_f F^T P_pred^-1,  x = x_f + C (x_next - F x_f),
-        P = P_f + C (P_next - P_pred) C^T,  P_pred = F P_f F^T + Q.
-
-    Every product runs its innermost loop over contiguous rows; ``F`` is sparse (at most three
-    non-zeros a row) and skipped where zero. Work arrays: ``x_pred, dx`` (n,), the rest (n, n).
-    """
-    n = x_f.shape[0]
-    for a in range(n):                                      # FP = F P_f, x_pred = F x_f
-        acc = 0.0
-        for b in range(n):
-            FP[a, b] = 0.0
-        for l in range(n):
-            f = F[a, l]
-            if f != 0.0:
-                acc += f * x_f[l]
-                for b in range(n):
-                    FP[a, b] += f * P_f[l, b]
-        x_pred[a] = acc
-    for a in range(n):                                      # P_pred = FP F^T + Q
-        for b in range(a + 1):
-            acc = Q[a, b]
-            for l in range(n):
-                f = F[b, l]
-                if f != 0.0:
-                    acc += FP[a, l] * f
-            P_pred[a, b] = acc
-            P_pred[b, a] = acc
-    for a in range(n):                                      # E = P_next - P_pred
-        for b in range(n):
-            E[a, b] = P_next[a, b] - P_pred[a, b]
-    if not cholesky_inplace(P_pred, n):
-        raise FloatingPointError("predicted covariance not positive definite in the IMM "
-                                 "smoother")
-    chol_solve_inplace(P_pred, n, FP, n)                    # FP <- P_pred^-1 F P_f = C^T
-    for a in range(n):
-        for b in range(n):
-            C[a, b] = FP[b, a]
-    for a in range(n):
-        dx[a] = x_next[a] - x_pred[a]
-    for a in range(n):                                      # x = x_f + C dx
-        acc = x_f[a]
-        for b in range(n):
-            acc += C[a, b] * dx[b]
-        x_out[a] = acc
-    for a in range(n):                                      # G = C E
-        for b in range(n):
-            G[a, b] = 0.0
-        for l in range(n):
-            c = C[a, l]
-            for b in range(n):
-                G[a, b] += c * E[l, b]
-    for a in range(n):                                      # P = P_f + G C^T
-        for b in range(a + 1):
-            acc = P_f[a, b]
-            for l in range(n):
-                acc += G[a, l] * C[b, l]
-            P_out[a, b] = acc
-            P_out[b, a] = acc
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
-             dx: np.ndarray) -> None:
-    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``."""
-    r, n = X.shape
-    for a in range(n):
-        acc = 0.0
-        for j in range(r):
-            acc += w[j] * X[j, a]
-        x[a] = acc
-    for a in range(n):
-        for b in range(n):
-            out[a, b] = 0.0
-    for j in range(r):
-        if w[j] == 0.0:
-            continue
-        for a in range(n):
-            dx[a] = X[j, a] - x[a]
-        for a in range(n):
-            for b in range(n):
-                out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])

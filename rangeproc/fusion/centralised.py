@@ -34,7 +34,8 @@ from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, NO_SPLINE, kalman_forward
-from rangeproc.estimation.imm import MODEL_NAMES, imm_forward, imm_smooth
+from rangeproc.estimation.imm import MODEL_NAMES, imm_forward
+from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
@@ -47,7 +48,7 @@ from rangeproc.fusion.spline_refine import spline_refine
 log = logging.getLogger(__name__)
 
 #: Relative weight below which a model pair (or a model) is left out of the IMM smoother
-#: (``estimation.imm.imm_smooth``): a pair carrying under 5 % of its model's smoothing weight
+#: (``estimation.imm_smoother``): a pair carrying under 5 % of its model's smoothing weight
 #: moves that model's smoothed mean by under 5 % of the pairs' difference, itself small over
 #: one step (on a straight-turn-straight flight the smoothed RMSE is 2 % above 1 % pruning's,
 #: still 8 % under the CA smoother's); it halves the smoother's cost against 1 %.

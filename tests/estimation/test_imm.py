@@ -12,10 +12,10 @@ from rangeproc.estimation.imm import (
     CT,
     CV,
     imm_forward,
-    imm_smooth,
     model_matrices,
     switch_matrix,
 )
+from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.centralised import imm_generator
 from rangeproc.models.measurement import CARTESIAN
