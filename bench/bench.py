@@ -551,6 +551,15 @@ def print_pipeline(p: dict) -> None:
           f"{p['peak_above_baseline_bytes_per_meas']:.0f} B per row above that)")
 
 
+#: Issue figures of the further filters: (name, ratio key, the row it is relative to, limit
+#: or None when the issue sets none).
+FILTER_TARGETS = (("stukf", "ratio_to_base", "the UKF row", 2.0),
+                  ("sage-husa", "ratio_to_ekf", "the EKF row", 2.0),
+                  ("imm", "ratio_to_ekf", "the EKF row", 4.0),
+                  ("askf", "ratio_to_ekf", "the EKF row", None),
+                  ("spline", "ratio_to_ekf", "the EKF row", None))
+
+
 def print_acceptance(res: dict) -> None:
     print("\nAcceptance (issue figures)")
     k, p = res.get("kernel"), res.get("pipeline")
@@ -580,22 +589,12 @@ def print_acceptance(res: dict) -> None:
         print(f"  UKF agreement with FilterPy <= {TARGET_AGREE:g} (relative position; not an "
               f"issue figure): {uworst:.1e}  {_ok(uworst <= TARGET_AGREE)}")
     f = k.get("filters", {}) if k else {}
-    if "stukf" in f:
-        r = f["stukf"]["ratio_to_base"]
-        print(f"  stukf <= 2x the UKF row: {r:.2f}x  {_ok(r <= 2.0)}")
-    if "sage-husa" in f:
-        r = f["sage-husa"]["ratio_to_ekf"]
-        print(f"  sage-husa <= 2x the EKF row: {r:.2f}x  {_ok(r <= 2.0)}")
-    if "imm" in f:
-        r = f["imm"]["ratio_to_ekf"]
-        print(f"  imm ({len(f['imm']['models'])} models) <= 4x the EKF row: {r:.2f}x  "
-              f"{_ok(r <= 4.0)}")
-    if "askf" in f:
-        ra = f["askf"]["ratio_to_ekf"]
-        print(f"  askf (norm constraint per epoch): {ra:.2f}x the EKF row (no issue figure)")
-    if "spline" in f:
-        rs = f["spline"]["ratio_to_ekf"]
-        print(f"  spline (anomaly test + jerk input): {rs:.2f}x the EKF row (no issue figure)")
+    for name, ratio, base, limit in FILTER_TARGETS:
+        if name in f:
+            r = f[name][ratio]
+            label = f"  {name}" + (f" ({len(f[name]['models'])} models)" if name == "imm" else "")
+            print(f"{label} <= {limit:g}x {base}: {r:.2f}x  {_ok(r <= limit)}" if limit else
+                  f"{label}: {r:.2f}x {base} (no issue figure)")
     if p:
         full = p["duration_s"] >= 3600.0
         tag = (lambda f: _ok(f)) if full else (lambda f: "n/a (not the one-hour sortie)")

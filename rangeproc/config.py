@@ -212,6 +212,14 @@ class _Validator:
             raise self.error(key, f"must be > 0, got {value:g}")
         return value
 
+    def probability(self, x: object, key: str, bounds: tuple[float, float]) -> float:
+        """A probability in the half-open ``[lo, hi)`` of ``bounds``."""
+        p = self.number(x, key)
+        lo, hi = bounds
+        if not lo <= p < hi:
+            raise self.error(key, f"must be in [{lo:g}, {hi:g}), got {p:g}")
+        return p
+
     def bounded(self, x: object, key: str, lo: float, hi: float, unit: str = "") -> float:
         """A number in [lo, hi] (plausibility bounds; the message gives them)."""
         value = self.number(x, key)
@@ -317,12 +325,9 @@ class _Validator:
         t = self.table(x, "processing", _PROCESSING_KEYS)
         kw: dict[str, Any] = {}
         if "gate_probability" in t:
-            p = self.number(t["gate_probability"], "processing.gate_probability")
-            lo, hi = GATE_PROBABILITY_BOUNDS
-            if not lo <= p < hi:
-                raise self.error("processing.gate_probability",
-                                 f"must be in [{lo:g}, {hi:g}), got {p:g}")
-            kw["gate_probability"] = p
+            kw["gate_probability"] = self.probability(t["gate_probability"],
+                                                      "processing.gate_probability",
+                                                      GATE_PROBABILITY_BOUNDS)
         if "noise_passes" in t:
             n = t["noise_passes"]
             if not isinstance(n, int) or isinstance(n, bool):
@@ -353,13 +358,9 @@ class _Validator:
             kw["spline_knot_spacing"] = self.bounded(ks, "processing.spline_knot_spacing",
                                                      *SPLINE_SPACING_BOUNDS, "s")
         if "spline_anomaly_probability" in t:
-            p = self.number(t["spline_anomaly_probability"],
-                            "processing.spline_anomaly_probability")
-            lo, hi = SPLINE_PROBABILITY_BOUNDS
-            if not lo <= p < hi:
-                raise self.error("processing.spline_anomaly_probability",
-                                 f"must be in [{lo:g}, {hi:g}), got {p:g}")
-            kw["spline_anomaly_probability"] = p
+            kw["spline_anomaly_probability"] = self.probability(
+                t["spline_anomaly_probability"], "processing.spline_anomaly_probability",
+                SPLINE_PROBABILITY_BOUNDS)
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():
