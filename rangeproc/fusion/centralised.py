@@ -476,10 +476,18 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
+    start = imm_start(first, x0, P0) if settings.imm_models else (x0, P0)
+    # the askf check refines the first pass once more, unconstrained; otherwise the first
+    # pass's arrays (track, covariances, residuals: most of a span's memory) are let go as
+    # soon as the refinement has moved on from them
+    again = [first] if rho is not None and settings.noise_passes > 0 else []
+    box = [first]
+    del first
 
-    def refine(rho: float | None, tick=tick):
-        """The refinement passes from the first pass, constrained to ``rho`` when given."""
-        out, b, qq, noise = first, batch, q, {}
+    def refine(box: list[PassResult], rho: float | None, tick=tick):
+        """The refinement passes from the pass in ``box`` (taken out of it), constrained to
+        ``rho`` when given."""
+        out, b, qq, noise = box.pop(), batch, q, {}
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
             if settings.adapt_noise:
@@ -488,14 +496,13 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             if settings.process_noise is None and out.em is not None:
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
-            start = imm_start(first, x0, P0) if settings.imm_models else (x0, P0)
             out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
         return out, qq, noise, why
 
-    out, q, noise, why = refine(rho)
-    if rho is not None and settings.noise_passes > 0:
-        free = refine(None, tick=lambda *a, **k: None)
+    out, q, noise, why = refine(box, rho)
+    if again:
+        free = refine(again, None, tick=lambda *a, **k: None)
         if not constraint_agrees(out, free[0], rho):
             rho, (out, q, noise, why) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
