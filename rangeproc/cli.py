@@ -184,20 +184,27 @@ def run_cmd(config: Path, quiet: bool) -> None:
 @click.option("--rate-scale", type=float, default=1.0, show_default=True,
               help="Multiplies every sensor's sample rate (0 < x <= 20), e.g. for benchmarks: "
                    "an hour at 1.0 is ~0.64 M rows.")
+@click.option("--faults", default="none", show_default=True,
+              help="Systematic sensor faults: a preset ('none'; 'issue8': R1 range +15 m, "
+                   "azimuth/elevation +0.5 mrad, TH1 azimuth +20\", elevation -20\", S1 "
+                   "mount_yaw +0.3 deg, latency +0.040 s), or a JSON object / JSON file "
+                   "{sensor_id: {name: value}} with the data contract's names, signs and SI "
+                   "units. Written to truth_calibration.json.")
 @quiet_option
 @library_errors
 def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_scale: float,
-                 quiet: bool) -> None:
+                 faults: str, quiet: bool) -> None:
     """Write a simulated scenario with truth into OUT_DIR.
 
     A maneuvering aircraft seen by a fixed radar, a theodolite, a ship-borne radar with INS,
     target GPS and MISTRAM stations, with realistic noise, dropouts, bursts and wild points.
-    Writes the sensor files, scenario.toml (a contract-only config) and truth.csv.
+    Writes the sensor files, scenario.toml (a contract-only config) and truth.csv (and, with
+    --faults, the injected systematic errors as truth_calibration.json).
     """
-    from rangeproc.simulate import simulate_scenario
+    from rangeproc.simulate import resolve_faults, simulate_scenario
 
     path = simulate_scenario(out_dir, seed=seed, duration=duration, sensors=sensors,
-                             rate_scale=rate_scale)
+                             rate_scale=rate_scale, faults=resolve_faults(faults))
     if not quiet:
         click.echo(f"wrote scenario {path}")
 

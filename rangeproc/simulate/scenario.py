@@ -11,13 +11,21 @@ seeds write GPS times as ISO-8601 strings (then every file uses Unix seconds), o
 GPS seconds of week; the theodolite's angle unit cycles mil/deg/rad with ``seed % 3``;
 ``seed % 4 == 1`` puts the ship's heading near north (yaw wraps across 0/360); R1 measures
 range rate on odd seeds; TH1 has a laser range on ``seed % 4 < 2``.
+
+``faults`` injects systematic sensor errors with truth (names and signs of the data contract,
+section 4; SI units): they change the noise-free measurements before noise is added, draw no
+random numbers (the noise is the same as without faults) and are written as
+``truth_calibration.json``. :data:`ISSUE8_FAULTS` is the registration scenario's preset.
 """
 from __future__ import annotations
 
 import datetime as dt
+import json
 import logging
 import math
+import numbers
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +51,30 @@ LATENCY = 0.05  #: s, the known latency of one sensor (config ``time_offset``)
 TH_MIN_EL, TH_MAX_RANGE, LASER_MAX_RANGE = math.radians(3.0), 25e3, 15e3
 _ISO_EPOCH = dt.datetime(2026, 5, 4, 10, 0, tzinfo=dt.timezone.utc).timestamp()
 _MRAD, _ARCSEC = 1e-3, math.pi / (180.0 * 3600.0)
+
+TRUTH_CALIBRATION = "truth_calibration.json"  #: faults written next to truth.csv
+_MOUNT = ("mount_roll", "mount_pitch", "mount_yaw")
+#: fault name -> (unit, sensors it applies to); names and signs of DATA_CONTRACT.md section 4:
+#: range/azimuth/elevation = measured minus true; latency = time stamp minus true time of the
+#: measurement; mount_* = sensor axes relative to the INS body axes, 3-2-1 (platform S1 only)
+FAULTS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "range": ("m", ("R1", "TH1", "S1")),
+    "azimuth": ("rad", ("R1", "TH1", "S1")),
+    "elevation": ("rad", ("R1", "TH1", "S1")),
+    "latency": ("s", ("R1", "TH1", "S1", "G1", "MISTRAM")),
+    **{name: ("rad", ("S1",)) for name in _MOUNT},
+}
+#: largest |fault| per unit: catches degrees given for radians; the latency bound keeps
+#: t - latency inside the trajectory (``sample_times`` leaves a 0.1 s margin)
+FAULT_LIMIT = {"m": 1000.0, "rad": 0.1, "s": 0.1}
+#: the registration issue's scenario: R1 long and high, TH1 azimuth/elevation biases, S1
+#: antenna yawed to starboard with its stamps 40 ms late
+ISSUE8_FAULTS: dict[str, dict[str, float]] = {
+    "R1": {"range": 15.0, "azimuth": 0.5 * _MRAD, "elevation": 0.5 * _MRAD},
+    "TH1": {"azimuth": 20.0 * _ARCSEC, "elevation": -20.0 * _ARCSEC},
+    "S1": {"mount_yaw": math.radians(0.3), "latency": 0.040},
+}
+FAULT_PRESETS: dict[str, dict[str, dict[str, float]]] = {"none": {}, "issue8": ISSUE8_FAULTS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,8 +219,15 @@ def _sign(g: np.random.Generator) -> float:
     return 1.0 if g.random() < 0.5 else -1.0
 
 
-def build_columns(sc: Scenario, sid: str, *, noise: bool = True) -> dict[str, np.ndarray]:
-    """File columns of sensor ``sid`` (file units, rows in file order; NaN = empty cell)."""
+def build_columns(sc: Scenario, sid: str, *, noise: bool = True,
+                  faults: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+    """File columns of sensor ``sid`` (file units, rows in file order; NaN = empty cell).
+
+    faults: this sensor's systematic errors (SI, see :data:`FAULTS`), applied to the exact
+    measurement before noise: the row stamped t (after ``time_offset``) measures the truth at
+    t - latency (target and, for S1, ship), seen through the mount rotation, plus the biases.
+    """
+    f = dict(faults or {})
     # child streams of default_rng(seed): 0 geometry, 1 trajectory, 2 + i sensor i (timing and
     # faults/noise split again) -> each file depends only on the seed and its own stream
     timing, nz = np.random.default_rng(sc.seed).spawn(3 + SENSOR_IDS.index(sid))[-1].spawn(2)
@@ -201,38 +240,43 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True) -> dict[str, np
         us = np.round((t_true - off) * 1e6).astype(np.int64)
         t_meas = us / 1e6 + off
         t_file = np.char.add(np.datetime_as_string(us.astype("datetime64[us]"), unit="us"), "Z")
+    t_geo = true_times(t_meas, f.get("latency", 0.0))
     cols: dict[str, np.ndarray]
     if sid == "MISTRAM":
         st = np.array([sn.site_enu(geo, sc.origin) for _, geo in sc.stations])
-        cols = sn.mistram_columns(nz, t_file, sc.traj, t_meas, st, [s for s, _ in sc.stations],
+        cols = sn.mistram_columns(nz, t_file, sc.traj, t_geo, st, [s for s, _ in sc.stations],
                                   sc.mistram_sigma, noise=noise,
                                   n_wild=int(nz.integers(5, 21)))
     elif sid == "SHIP_INS":
         cols = sn.ins_columns(nz, t_file, t_meas - t0, sc.ship, sc.ins_sigma, noise=noise)
     else:
-        p, v, _ = sc.traj.state(t_meas)
+        p, v, _ = sc.traj.state(t_geo)
         if sid == "G1":
             cols = sn.gps_columns(nz, t_file, t_meas, p, v, sc.origin, sc.g1_sigma, noise=noise,
                                   burst=sc.g1_burst, n_wild=int(nz.integers(3, 9)))
         elif sid == "S1":
-            lat, lon, h = sc.ship.geodetic(t_meas - t0)
-            rae = sn.platform_geometry(p, sc.origin, lat, lon, h, sc.ship.attitude(t_meas - t0),
-                                       np.array(sc.lever))
+            lat, lon, h = sc.ship.geodetic(t_geo - t0)
+            rae = sn.platform_geometry(p, sc.origin, lat, lon, h, sc.ship.attitude(t_geo - t0),
+                                       np.array(sc.lever),
+                                       mount=tuple(f.get(k, 0.0) for k in _MOUNT))
+            rae = sn.add_biases(rae, f)
             cols = sn.rae_columns(nz, t_file, rae, sc.s1_sigma, "deg", noise=noise,
                                   wild_fraction=sc.wild_fraction,
                                   n_missing=int(nz.integers(3, 15)), missing="range")
         elif sid == "R1":
             r, az, el, rr = sn.fixed_site_geometry(p, v, sc.origin, sc.r1_site)
             rae = (r, az, el, rr) if "range_rate" in sc.r1_sigma else (r, az, el)
+            rae = sn.add_biases(rae, f)
             cols = sn.rae_columns(nz, t_file, rae, sc.r1_sigma, "deg", noise=noise,
                                   wild_fraction=sc.wild_fraction,
                                   n_missing=int(nz.integers(3, 15)), missing="elevation")
             cols["track_id"] = np.full(t_file.size, 7, dtype=np.int64)
         else:  # TH1: limited coverage, optional laser range
             r, az, el, _ = sn.fixed_site_geometry(p, v, sc.origin, sc.th_site)
-            vis = sn.in_intervals(t_meas, sc.th_windows) & (el > TH_MIN_EL) & (r < TH_MAX_RANGE)
+            vis = sn.in_intervals(t_geo, sc.th_windows) & (el > TH_MIN_EL) & (r < TH_MAX_RANGE)
             laser = np.where(r < LASER_MAX_RANGE, r, np.nan)[vis]
-            cols = sn.rae_columns(nz, t_file[vis], (laser, az[vis], el[vis]), sc.th_sigma,
+            rae = sn.add_biases((laser, az[vis], el[vis]), f)
+            cols = sn.rae_columns(nz, t_file[vis], rae, sc.th_sigma,
                                   sc.th_unit, noise=noise, wild_fraction=sc.wild_fraction,
                                   n_missing=0, missing="azimuth")
             if "range" not in sc.th_sigma:
@@ -241,6 +285,12 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True) -> dict[str, np
         order = sn.shuffle_chunk(timing, cols["time"].size)
         cols = {k: val[order] for k, val in cols.items()}
     return cols
+
+
+def true_times(t_meas: np.ndarray, latency: float) -> np.ndarray:
+    """True times (s) of measurements stamped ``t_meas`` (after ``time_offset``) by a sensor
+    whose stamps are ``latency`` s late: t_meas - latency (t_meas itself for no latency)."""
+    return t_meas - latency if latency else t_meas
 
 
 def truth_columns(sc: Scenario) -> dict[str, np.ndarray]:
@@ -261,12 +311,14 @@ def truth_columns(sc: Scenario) -> dict[str, np.ndarray]:
     return cols
 
 
-def config_text(sc: Scenario, ids: list[str]) -> str:
-    """scenario.toml text with only the data contract's sections and keys."""
+def config_text(sc: Scenario, ids: list[str], *, faulted: bool = False) -> str:
+    """scenario.toml text with only the data contract's sections and keys (``faulted``: the
+    header comment points to truth_calibration.json)."""
     o = sc.origin
     scaled = "" if sc.rate_scale == 1.0 else f", sample rates x{sc.rate_scale:g}"
+    cal = f"; systematic sensor faults in {TRUTH_CALIBRATION}" if faulted else ""
     lines = [f"# simulated scenario (rangeproc.simulate), seed {sc.seed}, "
-             f"duration {sc.duration:g} s{scaled}; truth in truth.csv", "",
+             f"duration {sc.duration:g} s{scaled}; truth in truth.csv{cal}", "",
              "[range]", f"origin = {_geo_toml(o)}", "", "[output]", 'dir = "out"',
              "rate_hz = 10.0", "", "[[targets]]", 'id = "T1"']
     deg = 180.0 / math.pi
@@ -335,9 +387,82 @@ def parse_sensor_list(sensors: str) -> list[str]:
     return [s for s in SENSOR_IDS if s in want]
 
 
+def validate_faults(faults: Mapping[str, Mapping[str, float]] | None
+                    ) -> dict[str, dict[str, float]]:
+    """Checked copy ``{sensor_id: {name: value}}`` of ``faults`` (SI units, see :data:`FAULTS`),
+    sensors and names in canonical order; ConfigError naming the sensor and fault at fault."""
+    if not faults:
+        return {}
+    if not isinstance(faults, Mapping):
+        raise ConfigError(f"simulate: faults={faults!r}: must map sensor ids to "
+                          "{fault name: value}")
+    bad = [sid for sid in faults if sid not in SENSOR_IDS]
+    if bad:
+        raise ConfigError(f"simulate: faults: unknown sensor id {bad[0]!r}; choose from "
+                          f"{','.join(SENSOR_IDS)}")
+    out: dict[str, dict[str, float]] = {}
+    for sid in SENSOR_IDS:
+        if sid in faults:
+            checked = _sensor_faults(sid, faults[sid])
+            if checked:
+                out[sid] = checked
+    return out
+
+
+def _sensor_faults(sid: str, given: object) -> dict[str, float]:
+    """Checked faults of one sensor, names in :data:`FAULTS` order."""
+    if not isinstance(given, Mapping):
+        raise ConfigError(f"simulate: faults.{sid}={given!r}: must map fault names to values")
+    for name in given:
+        if name not in FAULTS:
+            raise ConfigError(f"simulate: faults.{sid}: unknown fault {name!r}; choose from "
+                              f"{', '.join(FAULTS)}")
+        if sid not in FAULTS[name][1]:
+            raise ConfigError(f"simulate: faults.{sid}.{name}: not applicable to {sid} "
+                              f"({name} applies to {', '.join(FAULTS[name][1])})")
+    out = {}
+    for name, (unit, _) in FAULTS.items():
+        if name not in given:
+            continue
+        val = given[name]
+        limit = FAULT_LIMIT[unit]
+        if (isinstance(val, bool) or not isinstance(val, numbers.Real)
+                or not abs(float(val)) <= limit):  # also rejects NaN
+            raise ConfigError(f"simulate: faults.{sid}.{name}={val!r}: must be a number in "
+                              f"[-{limit:g}, {limit:g}] {unit} (SI units)")
+        out[name] = float(val)
+    return out
+
+
+def resolve_faults(spec: str) -> dict[str, dict[str, float]]:
+    """Faults named on the command line: a preset name (:data:`FAULT_PRESETS`, e.g. 'none',
+    'issue8'), a JSON object ``{sensor_id: {name: value_SI}}`` or the path of a JSON file
+    holding one. Returns the mapping unchecked (:func:`simulate_scenario` checks it)."""
+    key = spec.strip()
+    if key.lower() in FAULT_PRESETS:
+        return FAULT_PRESETS[key.lower()]
+    what = "JSON"
+    try:
+        if key.startswith("{"):
+            text = key
+        else:
+            what = f"JSON file {key}"
+            text = Path(key).read_text(encoding="utf-8")
+        doc = json.loads(text)
+    except FileNotFoundError:
+        raise ConfigError(f"simulate: faults={spec!r}: not a preset "
+                          f"({', '.join(FAULT_PRESETS)}), JSON object or JSON file") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"simulate: faults={spec!r}: unreadable {what}: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"simulate: faults={spec!r}: {what} must hold an object "
+                          "{sensor_id: {name: value}}")
+    return doc
+
+
 def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
-                      sensors: str = "all", noise: bool = True,
-                      rate_scale: float = 1.0) -> Path:
+                      sensors: str = "all", noise: bool = True, rate_scale: float = 1.0,
+                      faults: Mapping[str, Mapping[str, float]] | None = None) -> Path:
     """Write sensor files, ``scenario.toml`` and ``truth.csv`` into out_dir; return the config.
 
     duration: seconds of flight (>= 20). sensors: 'all' or e.g. 'R1,S1,SHIP_INS,G1'.
@@ -345,6 +470,10 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     benchmarks; rows grow linearly with it, truth.csv stays at 100 Hz.
     noise=False writes exact measurements (no noise, wild points, bursts or empty cells; gaps,
     coverage limits, latency and row shuffling are kept) for tests.
+    faults: ``{sensor_id: {name: value}}`` systematic errors in SI units with the data
+    contract's names and signs (section 4; see :data:`FAULTS`), e.g. :data:`ISSUE8_FAULTS`;
+    applied with or without noise and written to ``truth_calibration.json`` (only the
+    sensors written). None or {} writes exactly the fault-free files (and no such file).
     """
     if not duration >= 20.0 or not math.isfinite(duration):
         raise ConfigError(f"simulate: duration={duration!r}: must be a number >= 20 s")
@@ -352,17 +481,41 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
         raise ConfigError(f"simulate: rate_scale={rate_scale!r}: must be a number in "
                           f"(0, {MAX_RATE_SCALE:g}]")
     ids = parse_sensor_list(sensors)
+    checked = validate_faults(faults)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     sc = draw_scenario(int(seed), float(duration), float(rate_scale))
     for sid in ids:
-        cols = build_columns(sc, sid, noise=noise)
+        cols = build_columns(sc, sid, noise=noise, faults=checked.get(sid))
         atomic_write_table(out_dir / FILES[sid], cols)
         log.info("simulate: wrote %s (%d rows)", FILES[sid], cols["time"].size)
     atomic_write_table(out_dir / "truth.csv", truth_columns(sc), truth=True)
+    write_truth_calibration(out_dir, {sid: contract_values(sc, sid, f)
+                                      for sid, f in checked.items() if sid in ids},
+                            given=bool(faults))
     cfg = out_dir / "scenario.toml"
-    atomic_write_text(cfg, config_text(sc, ids))
+    atomic_write_text(cfg, config_text(sc, ids, faulted=bool(faults)))
     return cfg
+
+
+def contract_values(sc: Scenario, sid: str, faults: Mapping[str, float]) -> dict[str, float]:
+    """The faults of sensor ``sid`` as the data contract reports them: a latency fault is
+    injected after the sensor's known ``time_offset`` (the row's time plus the offset, minus
+    the latency, is the true time), and the contract's latency is the file's time stamp minus
+    the true time: ``latency - time_offset``."""
+    return {name: value - sc.offset(sid) if name == "latency" else value
+            for name, value in faults.items()}
+
+
+def write_truth_calibration(out_dir: Path, faults: dict[str, dict[str, float]], *,
+                            given: bool) -> None:
+    """Write ``truth_calibration.json`` = ``{sensor_id: {name: value_SI}}`` if faults were
+    ``given``; otherwise remove a stale one left by an earlier faulted run in out_dir."""
+    path = out_dir / TRUTH_CALIBRATION
+    if not given:
+        path.unlink(missing_ok=True)
+        return
+    atomic_write_text(path, json.dumps(faults, indent=2) + "\n")
 
 
 #: decimals written per column (keeps files compact; far below every noise level)

@@ -121,19 +121,46 @@ def fixed_site_geometry(p: np.ndarray, v: np.ndarray, origin: Geo, site: Geo
 
 
 def platform_geometry(p: np.ndarray, origin: Geo, ship_lat: np.ndarray, ship_lon: np.ndarray,
-                      ship_h: np.ndarray, att: np.ndarray, lever: np.ndarray
+                      ship_h: np.ndarray, att: np.ndarray, lever: np.ndarray,
+                      mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Range (m), deck azimuth [0, 2 pi) and deck elevation (rad) of targets p (M, 3) range ENU
-    from a platform sensor; ship reference point geodetic (M,), att (M, 3) roll, pitch, yaw."""
+    from a platform sensor; ship reference point geodetic (M,), att (M, 3) roll, pitch, yaw.
+
+    mount: (roll, pitch, yaw) rad, the rotation of the sensor's own axes relative to the body
+    axes in the attitude's 3-2-1 sense, M = Rz(yaw) Ry(pitch) Rx(roll) (sensor -> body); the
+    angles are measured from d_sensor = M^T d_body (a +yaw mount gives smaller azimuths)."""
     x = enu_to_ecef(p, origin)
     tgt_ned = np.column_stack(pm.ecef2ned(x[:, 0], x[:, 1], x[:, 2], ship_lat, ship_lon, ship_h))
     c_bn = Rotation.from_euler("ZYX", att[:, ::-1])  # intrinsic: Rz(yaw) Ry(pitch) Rx(roll)
     los_ned = tgt_ned - c_bn.apply(lever)
     b = c_bn.apply(los_ned, inverse=True)  # C_bn^T: NED -> body FRD
+    if any(mount):
+        b = mount_rotation(mount).apply(b, inverse=True)  # M^T: body -> sensor axes
     rng = np.linalg.norm(b, axis=1)
     az = np.mod(np.arctan2(b[:, 1], b[:, 0]), 2 * math.pi)
     el = np.arctan2(-b[:, 2], np.hypot(b[:, 0], b[:, 1]))
     return rng, az, el
+
+
+def mount_rotation(mount: tuple[float, float, float]) -> Rotation:
+    """Sensor -> body rotation M = Rz(yaw) Ry(pitch) Rx(roll) of mount (roll, pitch, yaw) rad."""
+    roll, pitch, yaw = mount
+    return Rotation.from_euler("ZYX", [yaw, pitch, roll])
+
+
+def add_biases(rae: tuple[np.ndarray, ...], biases: dict[str, float]) -> tuple[np.ndarray, ...]:
+    """Add systematic biases (measured minus true) to true (range, azimuth, elevation[, ...]).
+
+    biases: any of ``range`` (m), ``azimuth``, ``elevation`` (rad); other keys are ignored.
+    The azimuth is re-wrapped to [0, 2 pi); NaN (not measured) stays NaN; further entries of
+    rae (range rate) are returned unchanged. Without biases, rae itself is returned."""
+    names = ("range", "azimuth", "elevation")
+    if not any(biases.get(k, 0.0) for k in names):
+        return rae
+    out = [val + biases.get(k, 0.0) for k, val in zip(names, rae)]
+    out[1] = np.mod(out[1], 2 * math.pi)
+    return (*out, *rae[3:])
 
 
 def sample_times(rng: np.random.Generator, t0: float, duration: float, rate: float,
