@@ -27,6 +27,8 @@ from rangeproc.settings import (  # re-exported: the config's public types
     ANGLE_COMPONENTS as ANGLE_COMPONENTS,
     ANGLE_TO_RADIANS as ANGLE_TO_RADIANS,
     ANGLE_UNITS as ANGLE_UNITS,
+    CALIBRATION_BY_KIND as CALIBRATION_BY_KIND,
+    CALIBRATION_NAMES as CALIBRATION_NAMES,
     Config as Config,
     DEFAULT_SIGMAS as DEFAULT_SIGMAS,
     IMM_MODELS as IMM_MODELS,
@@ -43,7 +45,8 @@ from rangeproc.settings import (  # re-exported: the config's public types
 
 _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")
 _SENSOR_KEYS = ("id", "kind", "file", "site", "platform", "lever_arm", "angle_unit",
-                "time_offset", "sigma", "target", "stations", "allow_disjoint_time")
+                "time_offset", "sigma", "target", "stations", "allow_disjoint_time",
+                "calibrate", "calibration")
 _GEODETIC_KEYS = ("lat", "lon", "height")
 _INITIAL_KEYS = ("time", "lat", "lon", "height", "ve", "vn", "vu", "sigma_position",
                  "sigma_velocity")
@@ -56,7 +59,8 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
                     "filter", "max_gap", "time_margin", "max_speed", "max_range",
                     "sage_husa_window", "sage_husa_mean", "maneuver_norm",
                     "stukf_forgetting", "stukf_weakening", "stukf_ratios", "imm_models",
-                    "imm_sojourn", "spline_knot_spacing", "spline_anomaly_probability")
+                    "imm_sojourn", "spline_knot_spacing", "spline_anomaly_probability",
+                    "calibration")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -79,6 +83,9 @@ SIGMA_BOUNDS = (1e-12, 1e9)
 MAX_SIGMA_ANGLE = 2.0 * math.pi
 #: |lever_arm| components (m)
 MAX_LEVER_ARM = 1.0e4
+#: |known calibration corrections|: range bias (m), angles (rad; a quarter turn)
+MAX_CALIBRATION_RANGE = 1.0e5
+MAX_CALIBRATION_ANGLE = 0.5 * math.pi
 #: processing.max_gap, time_margin (s), max_speed (m/s), max_range (m): (low, high)
 PROCESSING_BOUNDS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "max_gap": (1e-3, 1e7), "time_margin": (0.0, 1e10), "max_speed": (1.0, MAX_SPEED),
@@ -361,6 +368,8 @@ class _Validator:
             kw["spline_anomaly_probability"] = self.probability(
                 t["spline_anomaly_probability"], "processing.spline_anomaly_probability",
                 SPLINE_PROBABILITY_BOUNDS)
+        if "calibration" in t:
+            kw["calibration"] = self.boolean(t["calibration"], "processing.calibration")
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():
@@ -450,10 +459,46 @@ class _Validator:
                                                 "(only mistram)")
 
         sigma = self.sigma(t.get("sigma", {}), f"{key}.sigma", kind, unit)
+        names = tuple(n for n in CALIBRATION_BY_KIND[kind]
+                      if platform is not None or not n.startswith("mount_"))
+        calibrate = self.calibrate(t.get("calibrate", True), f"{key}.calibrate", names)
+        known = self.known_calibration(t.get("calibration", {}), f"{key}.calibration",
+                                       tuple(n for n in names if n != "latency"), unit)
         return SensorSettings(id=ident, kind=kind, file=(folder / file).resolve(), site=site,
                               platform=platform, lever_arm=lever_arm, angle_unit=unit,
                               time_offset=time_offset, sigma=sigma, target=target,
-                              stations=stations, allow_disjoint_time=allow_disjoint)
+                              stations=stations, allow_disjoint_time=allow_disjoint,
+                              calibrate=calibrate, calibration=known)
+
+    def calibrate(self, x: object, key: str, names: tuple[str, ...]) -> tuple[str, ...]:
+        """``calibrate = true | false | [names]``: which of ``names`` may be estimated."""
+        if isinstance(x, bool):
+            return names if x else ()
+        listed = ", ".join(f'"{n}"' for n in names) or "none for this sensor"
+        if not isinstance(x, list) or not all(isinstance(n, str) for n in x):
+            raise self.error(key, f"expected true, false or a list of terms ({listed}), got "
+                                  f"{_show(x)}")
+        for n in x:
+            if n not in names:
+                raise self.error(key, f"unknown or inapplicable term {n!r} (this sensor has: "
+                                      f"{listed})")
+        return tuple(n for n in names if n in x)
+
+    def known_calibration(self, x: object, key: str, names: tuple[str, ...], unit: str
+                          ) -> Mapping[str, float]:
+        """Known corrections ``{name = value}`` (m; angles in ``angle_unit``) -> SI."""
+        t = self.table(x, key, names)
+        out = {}
+        for name, value in t.items():
+            v = self.number(value, f"{key}.{name}")
+            si = v if name == "range" else v * ANGLE_TO_RADIANS[unit]
+            lo, hi = (-MAX_CALIBRATION_RANGE, MAX_CALIBRATION_RANGE) if name == "range" \
+                else (-MAX_CALIBRATION_ANGLE, MAX_CALIBRATION_ANGLE)
+            if not lo <= si <= hi:
+                raise self.error(f"{key}.{name}", f"{v:g} is outside the plausible range "
+                                                  f"[{lo:g}, {hi:g}] (SI units)")
+            out[name] = si
+        return MappingProxyType(out)
 
     def lever_arm(self, x: object, key: str) -> tuple[float, float, float]:
         items = self.array(x, key)

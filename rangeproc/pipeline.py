@@ -29,8 +29,10 @@ from rangeproc.estimation.imm import MODEL_NAMES
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
+from rangeproc.fusion.calibration_summary import calibration_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
+from rangeproc.fusion.registration import SensorCalibration
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.io.logs import SensorLog
 from rangeproc.io.output import fused_table
@@ -72,7 +74,23 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              if p.filter == "imm" else (), imm_sojourn=p.imm_sojourn,
                              spline=p.filter == "spline",
                              spline_probability=p.spline_anomaly_probability,
-                             spline_knot_spacing=p.spline_knot_spacing)
+                             spline_knot_spacing=p.spline_knot_spacing,
+                             calibration=calibration_specs(cfg) if p.calibration else ())
+
+
+def calibration_specs(cfg: Config) -> tuple[SensorCalibration | None, ...]:
+    """What the registration may estimate per sensor (index as in ``cfg.sensors``): the
+    config's ``calibrate`` terms; GPS is the absolute reference of position and time, and
+    MISTRAM's latency is estimated only against a GPS on the same target."""
+    with_gps = {target_of(s, cfg) for s in cfg.sensors if s.kind == "gps"}
+    specs: list[SensorCalibration | None] = []
+    for s in cfg.sensors:
+        names = s.calibrate
+        if s.kind == "gps" or (s.kind == "mistram" and target_of(s, cfg) not in with_gps):
+            names = ()
+        specs.append(SensorCalibration(s.kind, s.platform is not None, names)
+                     if s.kind != "ins" else None)
+    return tuple(specs)
 
 
 def read_all(cfg: Config, tick: Callable[..., None] = lambda *a, **k: None
@@ -254,6 +272,12 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                               "imposed": result.maneuver_norm},
             "max_sigma_position_m": float(np.sqrt(np.max(
                 np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
+    specs = settings.calibration
+    for i, sen in enumerate(cfg.sensors):
+        if sen.kind != "ins":
+            sensor_summary[sen.id]["calibration"] = calibration_summary(
+                sen, i, specs[i] if specs else None,
+                [c for _, result in fused for c in result.calibration])
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")

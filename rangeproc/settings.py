@@ -22,6 +22,13 @@ IMM_MODELS = ("cv", "ca", "ct")
 #: a standard deviation of about 0.83 around 1: beta = 3 (some 2.4 of those above the mean)
 #: keeps noise alone from fading a consistent filter, and a real model error still does.
 STUKF_WEAKENING = 3.0
+#: Calibration terms (``summary.json`` ``calibration.<name>``, data contract section 4), SI.
+CALIBRATION_NAMES = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch",
+                     "mount_yaw")
+#: Which terms each sensor kind has (mount terms only on a platform; GPS is the reference).
+CALIBRATION_BY_KIND: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "radar": CALIBRATION_NAMES, "theodolite": CALIBRATION_NAMES, "mistram": ("latency",),
+    "gps": ("latency",), "ins": ()})
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -81,6 +88,10 @@ class SensorSettings:
     ``sigma`` maps component name -> a-priori 1-sigma in SI (m, rad, m/s); components the user
     did not state carry rangeproc's defaults (see ``DEFAULT_SIGMAS``). ``file`` is absolute.
     ``lever_arm`` is body FRD in metres (platform sensors only; zeros otherwise).
+    ``calibrate``: the calibration terms rangeproc may estimate (``CALIBRATION_NAMES``; by
+    default all its kind has); ``calibration``: known corrections, SI (m, rad), with the
+    contract's signs (a bias is measured minus true), removed from the rows before anything
+    else (a known latency is ``time_offset``).
     """
 
     id: str
@@ -95,6 +106,8 @@ class SensorSettings:
     target: str | None = None
     stations: tuple[StationSettings, ...] = ()
     allow_disjoint_time: bool = False
+    calibrate: tuple[str, ...] = CALIBRATION_NAMES
+    calibration: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -133,6 +146,8 @@ class ProcessingSettings:
     max_speed: physical speed limit (m/s) of targets and platforms (range rates, velocities,
         jumps between consecutive fixes).
     max_range: physical range limit (m) of radars and laser rangers; also the highest height.
+    calibration: estimate the sensors' biases, latency and mount misalignment
+        (``fusion.registration``) in the refinement passes.
     """
 
     gate_probability: float = 0.9999
@@ -154,6 +169,7 @@ class ProcessingSettings:
     imm_sojourn: float = 10.0
     spline_knot_spacing: float | None = None
     spline_anomaly_probability: float = 0.999
+    calibration: bool = True
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from rangeproc.config import SensorSettings
 from rangeproc.frames.geodesy import RangeFrame
@@ -27,8 +28,21 @@ from rangeproc.fusion.batch import SensorRows, empty_rows
 from rangeproc.io.logs import SensorLog
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 
-#: Body FRD -> (right, forward, up) deck axes used by the SPHERICAL model.
+#: Body FRD -> (right, forward, up) deck axes used by the SPHERICAL model (its own inverse).
 FRD_TO_DECK = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+
+def mount_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """(3, 3) sensor-to-body rotation ``M = Rz(yaw) Ry(pitch) Rx(roll)`` of a platform
+    sensor's mount angles (rad; data contract section 4): the sensor measures
+    ``d_sensor = M^T d_body``."""
+    return Rotation.from_euler("ZYX", [yaw, pitch, roll]).as_matrix()
+
+
+def deck_turn(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """(3, 3) ``P M^T P``: turns deck axes (right, forward, up) of the INS body into those
+    of a sensor mounted with these angles (rad): ``Qr_sensor = deck_turn @ Qr_body``."""
+    return FRD_TO_DECK @ mount_rotation(roll, pitch, yaw).T @ FRD_TO_DECK
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,13 +66,14 @@ def _finish(t: np.ndarray, arrays: dict[str, np.ndarray], log: SensorLog,
 
 
 def _spherical(log: SensorLog, cfg: SensorSettings) -> dict[str, np.ndarray]:
+    """Rows ``[R, A, E, Rdot]`` with the known bias corrections removed."""
     n = len(log)
     a = empty_rows(n, SPHERICAL)
     cols = log.columns
     names = ("range", "azimuth", "elevation", "range_rate")
     for i, name in enumerate(names):
         if name in cols:
-            a["z"][:, i] = cols[name]
+            a["z"][:, i] = cols[name] - cfg.calibration.get(name, 0.0)
         if name in cfg.sigma:
             a["sigma"][:, i] = cfg.sigma[name]
     return a
@@ -79,8 +94,11 @@ def assemble_sensor(log: SensorLog, cfg: SensorSettings, frame: RangeFrame,
                                  np.asarray(cfg.lever_arm, dtype=float))
         a["s"][:] = geom.position
         a["sv"][:] = geom.velocity
-        # range ENU -> body FRD is body_to_range^T; then FRD -> deck (right, forward, up).
-        a["Qr"][:] = FRD_TO_DECK @ np.transpose(geom.body_to_range, (0, 2, 1))
+        # range ENU -> body FRD is body_to_range^T; then FRD -> deck (right, forward, up),
+        # turned into the sensor's own axes by a known mount misalignment.
+        mount = deck_turn(*(cfg.calibration.get(n, 0.0)
+                            for n in ("mount_roll", "mount_pitch", "mount_yaw")))
+        a["Qr"][:] = mount @ FRD_TO_DECK @ np.transpose(geom.body_to_range, (0, 2, 1))
         valid = np.asarray(geom.valid, dtype=bool)
         return Assembled(_finish(log.time, a, log, valid), int(n - valid.sum()))
     if cfg.kind == "gps":

@@ -43,6 +43,13 @@ from rangeproc.estimation.spline_filter import spline_params
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
+from rangeproc.fusion.registration import (
+    Calibration,
+    SensorCalibration,
+    apply_increments,
+    calibration_covariance,
+    register,
+)
 from rangeproc.fusion.spline_refine import spline_refine
 
 log = logging.getLogger(__name__)
@@ -56,6 +63,8 @@ IMM_PRUNE = 5e-2
 #: Variance factor on the first pass's smoothed first-epoch acceleration covariance that
 #: starts the IMM's refinement passes (``imm_start``).
 IMM_START_WIDENING = 10.0
+#: Packed entries of the kinematic 9x9 block (the first of the packed lower triangle).
+N_PACKED_NODE = 45
 
 
 
@@ -122,6 +131,7 @@ class EstimatorSettings:
     spline: bool = False
     spline_probability: float = 0.999
     spline_knot_spacing: float | None = None
+    calibration: tuple[SensorCalibration | None, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,6 +174,7 @@ class FusionResult:
     model_prob: np.ndarray | None = None
     model_names: tuple[str, ...] = ()
     down_weight: np.ndarray | None = None
+    calibration: tuple[Calibration, ...] = ()
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -426,7 +437,8 @@ def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResul
         n_unstarted=unstarted, maneuver_norm=parts[0].maneuver_norm,
         model_prob=cat("model_prob") if parts[0].model_prob is not None else None,
         down_weight=cat("down_weight") if parts[0].down_weight is not None else None,
-        model_names=parts[0].model_names)
+        model_names=parts[0].model_names,
+        calibration=tuple(c for p in parts for c in p.calibration))
 
 
 def fuse_span(batch: MeasurementBatch, rate_hz: float,
@@ -487,9 +499,17 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     def refine(box: list[PassResult], rho: float | None, tick=tick):
         """The refinement passes from the pass in ``box`` (taken out of it), constrained to
         ``rho`` when given."""
-        out, b, qq, noise = box.pop(), batch, q, {}
+        out, b, qq, noise, cal = box.pop(), batch, q, {}, None
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
+            if settings.calibration:
+                cal, dc, rate = register(b, out.xs, epoch_t, meas_epoch, grid, qq,
+                                         settings.calibration, cal)
+                if dc.any():            # the residuals of the corrected rows, same track
+                    b = apply_increments(b, cal.terms, dc, rate)
+                    res, hph = smoothed_residuals(meas_epoch, b.model, b.z, b.s, b.sv, b.Qr,
+                                                  out.xs, out.Ps)
+                    out = out._replace(res=res, hph=hph)
             if settings.adapt_noise:
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
@@ -498,20 +518,24 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
             out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
             tick(1, f"pass {p + 2}")
-        return out, qq, noise, why
+        return out, qq, noise, why, cal
 
-    out, q, noise, why = refine(box, rho)
+    out, q, noise, why, cal = refine(box, rho)
     if again:
         free = refine(again, None, tick=lambda *a, **k: None)
         if not constraint_agrees(out, free[0], rho):
-            rho, (out, q, noise, why) = None, free
+            rho, (out, q, noise, why, cal) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
     if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
         xs, Ps, res, hph = spline_refine(
             out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
             settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
+    if cal is not None:         # the calibration's uncertainty is the trajectory's too
+        Ps = Ps.copy()
+        Ps[:, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t)
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
                         res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,
                         maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
-                        model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models))
+                        model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models),
+                        calibration=(cal,) if cal is not None else ())

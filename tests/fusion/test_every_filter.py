@@ -42,7 +42,7 @@ def _case(seed: int):
 
 def _settings(name: str):
     proc = ProcessingSettings(filter=name, process_noise=Q, adapt_noise=False)
-    return estimator_settings(SimpleNamespace(processing=proc))
+    return estimator_settings(SimpleNamespace(processing=proc, sensors=()))
 
 
 @pytest.mark.parametrize("name", FILTERS)

@@ -1,0 +1,83 @@
+"""``summary.json`` ``sensors.<id>.calibration``: the registration's result per sensor, in the
+data contract's names, SI units and signs (section 4).
+
+Each term is ``{"estimate", "sigma", "unit"}`` plus ``"applied"`` (the rows were corrected:
+the estimate is significant, ``fusion.registration.SIGNIFICANCE``) and ``"given"`` (a known
+correction from the config, included in the estimate); a term the data cannot separate is
+``{"estimate": null, "sigma": null, "unobservable": reason}``; a term the config opted out of
+is ``{"estimate": given or null, "sigma": null, "unit", "not_estimated": reason}``. Estimates
+of the same sensor from several spans or targets are combined by inverse variance.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from rangeproc.config import CALIBRATION_BY_KIND, SensorSettings
+from rangeproc.fusion.registration import UNIT, Calibration, SensorCalibration
+
+GPS_REFERENCE = "GPS is the absolute reference of position and time"
+MISTRAM_REFERENCE = "no GPS on this target: MISTRAM is the time reference"
+
+
+def sensor_terms(s: SensorSettings) -> tuple[str, ...]:
+    """The calibration terms the contract reports for this sensor."""
+    return tuple(n for n in CALIBRATION_BY_KIND[s.kind]
+                 if s.platform is not None or not n.startswith("mount_"))
+
+
+def _given(s: SensorSettings, name: str) -> float:
+    return -s.time_offset if name == "latency" else s.calibration.get(name, 0.0)
+
+
+def _estimates(index: int, name: str, cals: Sequence[Calibration]
+               ) -> tuple[list[tuple[float, float, bool]], str]:
+    """(estimate, variance, applied) of each solve that estimated the term, and the first
+    reason of a solve that did not."""
+    found, reason = [], ""
+    for cal in cals:
+        for k, term in enumerate(cal.terms):
+            if term.sensor != index or term.name != name:
+                continue
+            if cal.reason[k] == "":
+                found.append((float(cal.estimate[k]), float(cal.cov[k, k]),
+                              bool(cal.applied[k] != 0.0)))
+            else:
+                reason = reason or cal.reason[k]
+    return found, reason
+
+
+def calibration_summary(s: SensorSettings, index: int, spec: SensorCalibration | None,
+                        cals: Sequence[Calibration]) -> dict[str, dict]:
+    """The ``calibration`` entry of sensor ``s`` (index ``index``) from the registrations
+    ``cals`` of every span it took part in; ``spec`` what it was allowed to estimate (None:
+    registration off)."""
+    out: dict[str, dict] = {}
+    for name in sensor_terms(s):
+        given = _given(s, name)
+        extra = {"given": given} if given != 0.0 else {}
+        if spec is None or name not in spec.names:
+            if s.kind == "gps":
+                out[name] = {"estimate": None, "sigma": None, "unobservable": GPS_REFERENCE}
+            elif s.kind == "mistram" and spec is not None:
+                out[name] = {"estimate": None, "sigma": None,
+                             "unobservable": MISTRAM_REFERENCE}
+            else:
+                why = "registration off ([processing] calibration = false)" if spec is None \
+                    else "not asked for (the sensor's calibrate key)"
+                out[name] = {"estimate": given if given else None, "sigma": None,
+                             "unit": UNIT[name], "not_estimated": why, **extra}
+            continue
+        found, reason = _estimates(index, name, cals)
+        if not found and not reason:        # never measured (a theodolite without laser)
+            continue
+        if not found:
+            out[name] = {"estimate": None, "sigma": None, "unobservable": reason, **extra}
+            continue
+        est = np.array([f[0] for f in found])
+        var = np.maximum(np.array([f[1] for f in found]), 1e-300)
+        mean = float(np.sum(est / var) / np.sum(1.0 / var))
+        out[name] = {"estimate": given + mean, "sigma": float(np.sqrt(1.0 / np.sum(1.0 / var))),
+                     "unit": UNIT[name], "applied": any(f[2] for f in found), **extra}
+    return out

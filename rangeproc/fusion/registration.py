@@ -1,0 +1,369 @@
+"""Registration: every sensor's biases, latency and mount misalignment, with the target's GPS
+(and MISTRAM) as the absolute reference (seed 003 sec. 3.2, cooperative-target registration).
+
+Between the smoother's passes (``fusion.centralised``), :func:`register` solves the joint
+least squares of a correction to the smoothed track and the calibration terms of all sensors
+(``estimation.registration``: the Gauss-Newton step of an augmented-state smoother with
+constant calibration states, solved through the Schur complement of the calibration border),
+robustly (iteratively re-weighted: each sensor component's noise scale from its post-fit
+residuals, Huber weights, wild points out), and decides what the data can separate:
+
+* **reference**: without GPS or MISTRAM rows of the target nothing is absolute (every bias
+  could be the trajectory's), so nothing is estimated;
+* **observability**: with each term scaled by its a-priori plausible size (``PRIOR_SIGMA``),
+  a direction of the terms whose posterior variance stays above ``UNOBSERVABLE_RATIO**2`` of
+  the prior is not determined by the data. Of the terms spanning it, one is left out (a
+  latency before a bias before a mount angle, ``PREFERENCE``: on a platform, an antenna's yaw
+  on its deck and an azimuth bias are the same error) and the solve repeated; the term is
+  reported with the reason and the result is what it would be without it.
+
+The estimates are applied to the measurement rows (biases subtracted; latency as
+``z + latency * dh/dt``; the mount rotation applied to the row's sensor axes exactly) and the
+next pass runs on the corrected rows, linearised anew: the registration repeats before every
+refinement pass, each solve estimating what is left. Sign conventions are the data contract's
+(section 4): a bias is measured minus true, latency is time stamp minus true time, mount angles
+rotate the sensor's axes relative to the INS body axes in the attitude's 3-2-1 sense.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from rangeproc.editing.noise import MAD_TO_SIGMA
+from rangeproc.estimation.registration import (
+    LATENCY_SLOT,
+    MOUNT_SLOT,
+    N_NODE,
+    N_SLOTS,
+    SLOTS,
+    normal_equations,
+    postfit,
+    process_blocks,
+    solve_joint,
+)
+from rangeproc.fusion.assemble import deck_turn
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import SPHERICAL
+
+log = logging.getLogger(__name__)
+
+#: A-priori plausible size (1-sigma, SI) of each term: the scale of the observability test and
+#: a weak prior (its information is 1e-6 of a usable estimate's).
+PRIOR_SIGMA = {"range": 100.0, "azimuth": 0.02, "elevation": 0.02, "latency": 0.2,
+               "mount_roll": 0.02, "mount_pitch": 0.02, "mount_yaw": 0.02}
+UNIT = {"range": "m", "azimuth": "rad", "elevation": "rad", "latency": "s",
+        "mount_roll": "rad", "mount_pitch": "rad", "mount_yaw": "rad"}
+#: Which term a degenerate direction gives up first (lowest first). A platform sensor measures
+#: in its own deck axes, so its angle offsets and its mount rotation act alike (a yaw of the
+#: mount is exactly an offset of every deck azimuth, whatever the ship does): there the mount,
+#: which the INS alignment defines, is kept and the angle bias given up; a fixed sensor has
+#: no mount terms.
+PREFERENCE = {"latency": 0, "range": 1, "azimuth": 1, "elevation": 1, "mount_roll": 2,
+              "mount_pitch": 2, "mount_yaw": 2}
+#: A term is estimated when the data bring its posterior sigma under this share of its prior.
+UNOBSERVABLE_RATIO = 0.1
+#: An estimated term corrects the rows when it differs from zero by this many of its sigmas
+#: (a significance test: an insignificant correction would only add its own error, which is
+#: systematic over the whole flight); its uncertainty enters the trajectory's either way.
+SIGNIFICANCE = 3.0
+#: Most nodes of the trajectory correction (output-grid epochs, thinned evenly beyond this).
+MAX_NODES = 20000
+#: Robust re-weighting: passes, Huber threshold, and the normalised residual beyond which a
+#: component is left out (also, before the first solve, its distance from the median of its
+#: sensor component in robust sigmas).
+IRLS_PASSES = 3
+HUBER_K = 3.0
+WILD = 6.0
+PRE_WILD = 8.0
+#: Rows a sensor component needs before its terms are estimated.
+MIN_ROWS = 20
+REFERENCE_KINDS = ("gps", "mistram")
+
+
+@dataclass(frozen=True, slots=True)
+class SensorCalibration:
+    """What may be estimated for one sensor: ``kind``, ``moving`` (on a platform: mount terms
+    and the platform's rotation in the latency's rate), ``names`` (of :data:`SLOTS`, after
+    the config's opt-outs)."""
+
+    kind: str
+    moving: bool
+    names: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Term:
+    """One calibration term: sensor index, name (:data:`SLOTS`), slot index."""
+
+    sensor: int
+    name: str
+    slot: int
+
+
+@dataclass(frozen=True, slots=True)
+class Calibration:
+    """The registration of one span after its last solve.
+
+    terms: the candidate terms; estimate (p,) SI (0 where not estimated); applied (p,) the
+    corrections in the rows (the significant estimates, 0 elsewhere); cov (p, p) of the
+    estimated ones (0 elsewhere); reason: per term, '' when
+    estimated, else why not; node_t (G,) and node_cov (G, 9, 9): the trajectory covariance the
+    calibration's uncertainty adds at the nodes (sensitivity ``Nxx^-1 Nxc`` times ``cov``).
+    """
+
+    terms: tuple[Term, ...]
+    estimate: np.ndarray
+    applied: np.ndarray
+    cov: np.ndarray
+    reason: tuple[str, ...]
+    node_t: np.ndarray
+    node_cov: np.ndarray
+
+    @property
+    def estimated(self) -> np.ndarray:
+        """(p,) bool: the terms the data determine."""
+        return np.array([r == "" for r in self.reason], dtype=bool)
+
+
+def candidate_terms(batch: MeasurementBatch, specs: tuple[SensorCalibration | None, ...]
+                    ) -> tuple[tuple[Term, ...], np.ndarray]:
+    """The terms of the sensors in ``batch`` whose components were measured at all, and per
+    term the rows that measured them."""
+    terms, rows_of = [], []
+    for i in np.unique(batch.sensor):
+        spec = specs[int(i)] if int(i) < len(specs) else None
+        if spec is None:
+            continue
+        rows = batch.sensor == i
+        measured = (np.isfinite(batch.z[rows]) & (batch.model[rows] == SPHERICAL)[:, None]
+                    ).sum(axis=0)
+        for name in spec.names:
+            slot = SLOTS.index(name)
+            if slot < 3:
+                n = measured[slot]
+            elif slot == LATENCY_SLOT:
+                n = measured[:4].max()
+            else:
+                n = measured[1:3].max() if spec.moving else 0
+            if n > 0:
+                terms.append(Term(int(i), name, slot))
+                rows_of.append(int(n))
+    return tuple(terms), np.array(rows_of, dtype=np.int64)
+
+
+def _slots_table(terms: tuple[Term, ...], n_sensors: int) -> np.ndarray:
+    slots = np.full((max(n_sensors, 1), N_SLOTS), -1, dtype=np.int64)
+    for k, term in enumerate(terms):
+        slots[term.sensor, term.slot] = k
+    return slots
+
+
+def _nodes(epoch_t: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    node_t = epoch_t[grid]
+    if len(node_t) < 2:
+        node_t = epoch_t[[0, -1]] if len(epoch_t) > 1 else epoch_t
+    stride = int(np.ceil(len(node_t) / MAX_NODES))
+    return np.unique(np.concatenate([node_t[::stride], node_t[-1:]]))
+
+
+def _nearest(node_t: np.ndarray, t: np.ndarray) -> np.ndarray:
+    k = np.clip(np.searchsorted(node_t, t), 1, max(len(node_t) - 1, 1))
+    left = node_t[k - 1]
+    right = node_t[np.minimum(k, len(node_t) - 1)]
+    return np.where(np.abs(t - left) <= np.abs(right - t), k - 1, k).astype(np.int64) \
+        .clip(0, len(node_t) - 1)
+
+
+def axes_rate(batch: MeasurementBatch, moving: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Rate of change (1/s) of the sensor axes ``Qr`` of platform rows, by central differences
+    over each sensor's rows: ``(index (N,) into rates or -1, rates (M, 3, 3))``."""
+    index = np.full(len(batch), -1, dtype=np.int64)
+    parts = []
+    m = 0
+    for i in np.flatnonzero(moving):
+        rows = np.flatnonzero(batch.sensor == i)
+        if len(rows) < 2:
+            continue
+        t, Q = batch.t[rows], batch.Qr[rows]
+        prev = np.concatenate([[0], np.arange(len(rows) - 1)])
+        nxt = np.concatenate([np.arange(1, len(rows)), [len(rows) - 1]])
+        dt = t[nxt] - t[prev]
+        rate = (Q[nxt] - Q[prev]) / np.where(dt > 0, dt, np.inf)[:, None, None]
+        parts.append(rate)
+        index[rows] = m + np.arange(len(rows))
+        m += len(rows)
+    rates = np.concatenate(parts) if parts else np.zeros((1, 3, 3))
+    return index, np.ascontiguousarray(rates)
+
+
+def _robust_scale(x: np.ndarray) -> float:
+    return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
+
+
+def _weights(batch: MeasurementBatch, r: np.ndarray, base: np.ndarray, first: bool
+             ) -> np.ndarray:
+    """(N, 6) weights 1/sigma^2 from residuals ``r``: per sensor component, ``base`` sigmas
+    rescaled to the residuals' robust scale, Huber down-weighting, wild values left out. On
+    the ``first`` solve ``r`` are pre-fit residuals (a bias still in them): only values far
+    from their sensor component's median are left out, at the stated sigmas."""
+    w = np.zeros(r.shape)
+    for i in np.unique(batch.sensor):
+        rows = np.flatnonzero(batch.sensor == i)
+        for c in range(r.shape[1]):
+            rc, sc = r[rows, c], base[rows, c]
+            have = np.isfinite(rc) & np.isfinite(sc) & (sc > 0)
+            if have.sum() < 3:
+                continue
+            u = np.full(len(rows), np.inf)
+            u[have] = rc[have] / sc[have]
+            if first:
+                med = np.median(u[have])
+                scale = max(_robust_scale(u[have]), 1e-12)
+                keep = have & (np.abs(u - med) <= PRE_WILD * scale)
+                w[rows[keep], c] = 1.0 / sc[keep] ** 2
+                continue
+            f = max(_robust_scale(u[have]), 0.2)
+            un = np.abs(u) / f
+            keep = have & (un <= WILD)
+            huber = np.minimum(1.0, HUBER_K / np.maximum(un, 1e-12))
+            w[rows[keep], c] = huber[keep] / (f * sc[keep]) ** 2
+    return w
+
+
+def _select(S: np.ndarray, s_prior: np.ndarray, terms: tuple[Term, ...],
+            sensor_ids: tuple[str, ...], n_rows: np.ndarray) -> list[str]:
+    """Reasons (``''`` = estimated) from the information ``S`` (p, p) of the terms with the
+    trajectory free (see module docstring, observability); ``n_rows`` (p,) measured rows of
+    each term (too few: not estimated)."""
+    reason = ["" if n >= MIN_ROWS and S[k, k] > 0 else f"too few measured rows ({n})"
+              for k, n in enumerate(n_rows)]
+    Sn = S * np.outer(s_prior, s_prior) + np.eye(len(terms))      # prior-scaled, with prior
+    while True:
+        act = [k for k in range(len(terms)) if reason[k] == ""]
+        if not act:
+            return reason
+        C = np.linalg.inv(Sn[np.ix_(act, act)])
+        lam, V = np.linalg.eigh(0.5 * (C + C.T))
+        if lam[-1] <= UNOBSERVABLE_RATIO ** 2:
+            return reason
+        v = np.abs(V[:, -1])
+        part = [act[j] for j in np.flatnonzero(v >= 0.3 * v.max())]
+        drop = min(part, key=lambda k: (PREFERENCE[terms[k].name], -v[act.index(k)]))
+        others = [f"{sensor_ids[terms[k].sensor]} {terms[k].name}" for k in part if k != drop]
+        ratio = float(np.sqrt(C[act.index(drop), act.index(drop)]))
+        reason[drop] = (
+            f"not separable from {', '.join(others)} over this flight's geometry"
+            if others else "not separable from the trajectory: no other sensor's data "
+            "fix it") + f" (posterior/prior sigma {ratio:.2f})"
+
+
+def register(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
+             meas_epoch: np.ndarray, grid: np.ndarray, q: np.ndarray,
+             specs: tuple[SensorCalibration | None, ...],
+             previous: Calibration | None = None
+             ) -> tuple[Calibration, np.ndarray, np.ndarray]:
+    """One registration solve at the smoothed track ``xs`` (E, n) of rows ``batch`` (already
+    corrected by ``previous``; its ``sigma`` the pass's).
+
+    ``q`` (E,) the smoother's white-jerk PSD per step. Returns the updated
+    :class:`Calibration`, the increments (p,) of the corrections to apply to the rows, and the
+    rates ``dh/dt`` (N, 4) of each row's components at ``xs`` (for the latency correction).
+    """
+    terms, n_rows = candidate_terms(batch, specs)
+    if previous is not None:
+        terms = previous.terms
+    p = len(terms)
+    total = previous.applied.copy() if previous is not None else np.zeros(p)
+    node_t = _nodes(epoch_t, grid)
+    node = _nearest(node_t, batch.t)
+    moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
+    mv_index, rates = axes_rate(batch, moving)
+    slots = _slots_table(terms, len(batch.sensor_ids))
+    x_node = np.ascontiguousarray(xs[np.searchsorted(epoch_t, node_t), :N_NODE])
+    q_node = np.maximum(q[np.searchsorted(epoch_t, node_t)][1:], 1e-6)
+    diag, upper, rhs = process_blocks(node_t, q_node, x_node)
+    diag[0] += np.diag(np.repeat([1e-6, 1e-4, 1e-4], 3))      # weak start (m, m/s, m/s^2)
+    has_ref = bool(np.isin(batch.sensor, [i for i, sp in enumerate(specs)
+                                          if sp is not None and sp.kind in REFERENCE_KINDS]).any())
+    s_prior = np.array([PRIOR_SIGMA[t.name] for t in terms])
+    args = (meas_epoch, node, node_t, batch.t, batch.model)
+    geo = (batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs)
+    weight = np.where(np.isfinite(batch.z), 1.0 / batch.sigma ** 2, 0.0)
+    r = None
+    dc = np.zeros(p)
+    reason = ["no absolute reference (GPS or MISTRAM rows of this target)"] * p
+    cov = np.zeros((p, p))
+    Xc = np.zeros((len(node_t), N_NODE, p))
+    for it in range(IRLS_PASSES):
+        if it == 0:
+            # pre-fit residuals first, at the stated sigmas, wild points out
+            _, _, _, _, _, r = normal_equations(*args, batch.z, np.zeros_like(weight), *geo, p)
+            weight = _weights(batch, r, batch.sigma, True)
+        Nxx, Nxc, Ncc, bx, bc, r = normal_equations(*args, batch.z, weight, *geo, p)
+        S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
+        dc = np.zeros(p)
+        if has_ref and p:
+            reason = _select(S, s_prior, terms, batch.sensor_ids, n_rows)
+            act = [k for k in range(p) if reason[k] == ""]
+            cov = np.zeros((p, p))
+            if act:
+                info = S[np.ix_(act, act)] + np.diag(1.0 / s_prior[act] ** 2)
+                cov[np.ix_(act, act)] = np.linalg.inv(info)
+                dc[act] = cov[np.ix_(act, act)] @ s[act]
+        dx = xb - np.einsum("gij,j->gi", Xc, dc)
+        post, _ = postfit(*args, *geo, r, dx, dc)
+        base = batch.sigma
+        weight = _weights(batch, post, base, False)
+    _, rate = postfit(*args, *geo, r, np.zeros((len(node_t), N_NODE)), np.zeros(p))
+    node_cov = np.einsum("gip,pq,gjq->gij", Xc, cov, Xc)
+    estimate = total + dc
+    sigma = np.sqrt(np.diag(cov))
+    applied = np.where((dc != 0.0) & (np.abs(estimate) > SIGNIFICANCE * sigma), estimate, 0.0)
+    for k, term in enumerate(terms):
+        if reason[k] == "":
+            log.info("registration: %s %s %+.4g +- %.2g %s%s", batch.sensor_ids[term.sensor],
+                     term.name, estimate[k], sigma[k], UNIT[term.name],
+                     "" if applied[k] else " (not significant: rows not corrected)")
+    cal = Calibration(terms, estimate, applied, cov, tuple(reason), node_t, node_cov)
+    return cal, applied - total, rate
+
+
+def apply_increments(batch: MeasurementBatch, terms: tuple[Term, ...], dc: np.ndarray,
+                     rate: np.ndarray) -> MeasurementBatch:
+    """The batch with the calibration increments ``dc`` removed from its rows (new ``z`` and,
+    when a mount term moves, ``Qr`` arrays; the others shared).
+
+    Biases are subtracted; a latency ``L`` moves a component to its value at the time stamp,
+    ``z + L dh/dt`` (``rate`` (N, 4) from :func:`register`); a mount rotation ``M`` turns the
+    row's sensor axes: ``Qr <- P M^T P Qr`` (P: deck <-> FRD axes).
+    """
+    z = batch.z.copy()
+    Qr = batch.Qr
+    mounts: dict[int, np.ndarray] = {}
+    for k, term in enumerate(terms):
+        if dc[k] == 0.0:
+            continue
+        rows = (batch.sensor == term.sensor) & (batch.model == SPHERICAL)
+        if term.slot < 3:
+            z[rows, term.slot] -= dc[k]
+        elif term.slot == LATENCY_SLOT:
+            z[rows, :4] += dc[k] * rate[rows]
+        else:
+            mounts.setdefault(term.sensor, np.zeros(3))[term.slot - MOUNT_SLOT] = dc[k]
+    if mounts:
+        Qr = batch.Qr.copy()
+        for sensor, (roll, pitch, yaw) in mounts.items():
+            rows = batch.sensor == sensor
+            Qr[rows] = np.einsum("ij,njk->nik", deck_turn(roll, pitch, yaw), Qr[rows])
+    return replace(batch, z=z, Qr=np.ascontiguousarray(Qr))
+
+
+def calibration_covariance(cal: Calibration, epoch_t: np.ndarray) -> np.ndarray:
+    """(E, 45) packed 9x9 trajectory covariance added by the calibration's uncertainty at
+    each epoch (its nearest node's, ``Calibration.node_cov``)."""
+    i, j = np.tril_indices(N_NODE)
+    packed = cal.node_cov[:, i, j]
+    return packed[_nearest(cal.node_t, epoch_t)]
