@@ -286,9 +286,11 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         with clock.stage("write"):
             write_parquet(fused_table(tracks), stage / "fused.parquet")
             write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
-        with clock.stage("report", 3 + len(residuals)) as tick:
+        with clock.stage("report", 4 + len(residuals)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
-                                   sites=sites,
+                                   sites=sites, calibration={
+                                       sid: ss["calibration"] for sid, ss in
+                                       sensor_summary.items() if ss.get("calibration")},
                                    progress=lambda name: tick(1, name))
         summary = {
             "rangeproc_version": rangeproc.__version__,

@@ -264,6 +264,18 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
                       batch, model_prob, epoch_t[knot] if knot.shape[0] else epoch_t[:0])
 
 
+def corrected_residuals(b: MeasurementBatch, cal: Calibration, dc: np.ndarray,
+                        out: PassResult, meas_epoch: np.ndarray) -> np.ndarray:
+    """The pass's residuals (N, 6) with those of the sensors whose rows the increments ``dc``
+    corrected recomputed (same smoothed track; ``hph`` changes only to second order)."""
+    moved = np.isin(b.sensor, [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0])
+    rows = np.flatnonzero(moved)
+    res = out.res.copy()
+    res[rows], _ = smoothed_residuals(meas_epoch[rows], b.model[rows], b.z[rows], b.s[rows],
+                                      b.sv[rows], b.Qr[rows], out.xs, out.Ps)
+    return res
+
+
 def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
     """(r, r) model-switching generator (1/s): mean time ``sojourn`` (s) in each model, a
     switch going to each other model alike."""
@@ -503,13 +515,11 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
             if settings.calibration:
-                cal, dc, rate = register(b, out.xs, epoch_t, meas_epoch, grid, qq,
+                cal, dc, rate = register(b, out.xs, out.res, epoch_t, meas_epoch, grid, qq,
                                          settings.calibration, cal)
                 if dc.any():            # the residuals of the corrected rows, same track
                     b = apply_increments(b, cal.terms, dc, rate)
-                    res, hph = smoothed_residuals(meas_epoch, b.model, b.z, b.s, b.sv, b.Qr,
-                                                  out.xs, out.Ps)
-                    out = out._replace(res=res, hph=hph)
+                    out = out._replace(res=corrected_residuals(b, cal, dc, out, meas_epoch))
             if settings.adapt_noise:
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
@@ -531,8 +541,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
             settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
     if cal is not None:         # the calibration's uncertainty is the trajectory's too
-        Ps = Ps.copy()
-        Ps[:, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t)
+        Ps[grid, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t[grid])
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
                         res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,

@@ -73,7 +73,7 @@ MAX_NODES = 20000
 #: Robust re-weighting: passes, Huber threshold, and the normalised residual beyond which a
 #: component is left out (also, before the first solve, its distance from the median of its
 #: sensor component in robust sigmas).
-IRLS_PASSES = 3
+IRLS_PASSES = 2
 HUBER_K = 3.0
 WILD = 6.0
 PRE_WILD = 8.0
@@ -199,37 +199,40 @@ def axes_rate(batch: MeasurementBatch, moving: np.ndarray
     return index, np.ascontiguousarray(rates)
 
 
-def _robust_scale(x: np.ndarray) -> float:
+def _robust_scale(x: np.ndarray, max_samples: int = 100_000) -> float:
+    """1.4826 MAD of ``x`` (an evenly thinned subset of at most ``max_samples`` values)."""
+    x = x[::max(1, len(x) // max_samples)]
     return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
 
 
-def _weights(batch: MeasurementBatch, r: np.ndarray, base: np.ndarray, first: bool
+def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: bool
              ) -> np.ndarray:
-    """(N, 6) weights 1/sigma^2 from residuals ``r``: per sensor component, ``base`` sigmas
-    rescaled to the residuals' robust scale, Huber down-weighting, wild values left out. On
-    the ``first`` solve ``r`` are pre-fit residuals (a bias still in them): only values far
-    from their sensor component's median are left out, at the stated sigmas."""
+    """(N, 6) weights 1/sigma^2 from residuals ``r`` of the rows of each sensor (``groups``):
+    per sensor component, ``base`` sigmas rescaled to the residuals' robust scale, Huber
+    down-weighting, wild values left out. On the ``first`` solve ``r`` are pre-fit residuals
+    (a bias still in them): only values far from their sensor component's median are left
+    out, at the stated sigmas."""
     w = np.zeros(r.shape)
-    for i in np.unique(batch.sensor):
-        rows = np.flatnonzero(batch.sensor == i)
-        for c in range(r.shape[1]):
-            rc, sc = r[rows, c], base[rows, c]
-            have = np.isfinite(rc) & np.isfinite(sc) & (sc > 0)
+    for rows in groups:
+        Wg = np.zeros((len(rows), r.shape[1]))
+        Ug, Sg = r[rows] / base[rows], base[rows]
+        for c in np.flatnonzero(np.isfinite(Ug).any(axis=0)):
+            u, sc = Ug[:, c], Sg[:, c]
+            have = np.isfinite(u) & (sc > 0)
             if have.sum() < 3:
                 continue
-            u = np.full(len(rows), np.inf)
-            u[have] = rc[have] / sc[have]
             if first:
                 med = np.median(u[have])
                 scale = max(_robust_scale(u[have]), 1e-12)
                 keep = have & (np.abs(u - med) <= PRE_WILD * scale)
-                w[rows[keep], c] = 1.0 / sc[keep] ** 2
+                Wg[keep, c] = 1.0 / sc[keep] ** 2
                 continue
             f = max(_robust_scale(u[have]), 0.2)
-            un = np.abs(u) / f
-            keep = have & (un <= WILD)
-            huber = np.minimum(1.0, HUBER_K / np.maximum(un, 1e-12))
-            w[rows[keep], c] = huber[keep] / (f * sc[keep]) ** 2
+            un = np.where(have, np.abs(u) / f, np.inf)
+            keep = un <= WILD
+            huber = np.minimum(1.0, HUBER_K / np.maximum(un[keep], 1e-12))
+            Wg[keep, c] = huber / (f * sc[keep]) ** 2
+        w[rows] = Wg
     return w
 
 
@@ -260,13 +263,13 @@ def _select(S: np.ndarray, s_prior: np.ndarray, terms: tuple[Term, ...],
             "fix it") + f" (posterior/prior sigma {ratio:.2f})"
 
 
-def register(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
+def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: np.ndarray,
              meas_epoch: np.ndarray, grid: np.ndarray, q: np.ndarray,
              specs: tuple[SensorCalibration | None, ...],
              previous: Calibration | None = None
              ) -> tuple[Calibration, np.ndarray, np.ndarray]:
     """One registration solve at the smoothed track ``xs`` (E, n) of rows ``batch`` (already
-    corrected by ``previous``; its ``sigma`` the pass's).
+    corrected by ``previous``; its ``sigma`` the pass's) with residuals ``res`` (N, 6) there.
 
     ``q`` (E,) the smoother's white-jerk PSD per step. Returns the updated
     :class:`Calibration`, the increments (p,) of the corrections to apply to the rows, and the
@@ -291,18 +294,15 @@ def register(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
     s_prior = np.array([PRIOR_SIGMA[t.name] for t in terms])
     args = (meas_epoch, node, node_t, batch.t, batch.model)
     geo = (batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs)
-    weight = np.where(np.isfinite(batch.z), 1.0 / batch.sigma ** 2, 0.0)
-    r = None
+    groups = [np.flatnonzero(batch.sensor == i) for i in np.unique(batch.sensor)]
+    weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
     dc = np.zeros(p)
     reason = ["no absolute reference (GPS or MISTRAM rows of this target)"] * p
     cov = np.zeros((p, p))
     Xc = np.zeros((len(node_t), N_NODE, p))
+    rate = None
     for it in range(IRLS_PASSES):
-        if it == 0:
-            # pre-fit residuals first, at the stated sigmas, wild points out
-            _, _, _, _, _, r = normal_equations(*args, batch.z, np.zeros_like(weight), *geo, p)
-            weight = _weights(batch, r, batch.sigma, True)
-        Nxx, Nxc, Ncc, bx, bc, r = normal_equations(*args, batch.z, weight, *geo, p)
+        Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*args, batch.z, weight, *geo, p)
         S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
         dc = np.zeros(p)
         if has_ref and p:
@@ -313,12 +313,13 @@ def register(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
                 info = S[np.ix_(act, act)] + np.diag(1.0 / s_prior[act] ** 2)
                 cov[np.ix_(act, act)] = np.linalg.inv(info)
                 dc[act] = cov[np.ix_(act, act)] @ s[act]
-        dx = xb - np.einsum("gij,j->gi", Xc, dc)
-        post, _ = postfit(*args, *geo, r, dx, dc)
-        base = batch.sigma
-        weight = _weights(batch, post, base, False)
-    _, rate = postfit(*args, *geo, r, np.zeros((len(node_t), N_NODE)), np.zeros(p))
-    node_cov = np.einsum("gip,pq,gjq->gij", Xc, cov, Xc)
+        if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals
+            dx = xb - Xc @ dc
+            post, rate = postfit(*args, *geo, res, dx, dc)
+            weight = _weights(groups, post, batch.sigma, False)
+    if rate is None:
+        _, rate = postfit(*args, *geo, res, np.zeros((len(node_t), N_NODE)), np.zeros(p))
+    node_cov = (Xc @ cov) @ Xc.transpose(0, 2, 1)
     estimate = total + dc
     sigma = np.sqrt(np.diag(cov))
     applied = np.where((dc != 0.0) & (np.abs(estimate) > SIGNIFICANCE * sigma), estimate, 0.0)
@@ -361,9 +362,9 @@ def apply_increments(batch: MeasurementBatch, terms: tuple[Term, ...], dc: np.nd
     return replace(batch, z=z, Qr=np.ascontiguousarray(Qr))
 
 
-def calibration_covariance(cal: Calibration, epoch_t: np.ndarray) -> np.ndarray:
-    """(E, 45) packed 9x9 trajectory covariance added by the calibration's uncertainty at
-    each epoch (its nearest node's, ``Calibration.node_cov``)."""
+def calibration_covariance(cal: Calibration, t: np.ndarray) -> np.ndarray:
+    """(M, 45) packed 9x9 trajectory covariance added by the calibration's uncertainty at
+    times ``t`` (M,) s (the nearest node's, ``Calibration.node_cov``)."""
     i, j = np.tril_indices(N_NODE)
     packed = cal.node_cov[:, i, j]
-    return packed[_nearest(cal.node_t, epoch_t)]
+    return packed[_nearest(cal.node_t, t)]

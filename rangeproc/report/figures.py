@@ -13,6 +13,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from rangeproc.report.calibration import plot_calibration
 from rangeproc.report.common import STYLE, merge_sensors, safe_name, save_figure, time_origin
 from rangeproc.report.consistency import plot_consistency
 from rangeproc.report.residuals import plot_residuals
@@ -41,16 +42,19 @@ def residual_file_names(sensor_ids: Sequence[str]) -> list[str]:
 def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
                  residuals: Sequence[SensorResiduals], *,
                  sites: Mapping[str, np.ndarray] | None = None,
+                 calibration: Mapping[str, Mapping[str, dict]] | None = None,
                  progress: Callable[[str], None] | None = None) -> list[Path]:
     """Draw and write the report figures into ``report_dir`` (created if missing).
 
     tracks: smoothed trajectories (range ENU metres, s); residuals: post-fit residual sets
     (several sets of one sensor id, e.g. one per target, are drawn together); sites: sensor /
     station id -> (3,) fixed position or (N, 3) platform track in range ENU metres, drawn on
-    the map; progress: called with a short message before each figure.
+    the map; calibration: ``summary.json``'s per-sensor ``calibration`` entries (drawn when
+    any); progress: called with a short message before each figure.
 
-    Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor, ``consistency.png`` and
-    ``coverage.png``; returns their paths in that order. Each file is written atomically (temp
+    Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor (after the calibration's
+    corrections), ``consistency.png``, ``coverage.png`` and ``calibration.png``; returns their
+    paths in that order. Each file is written atomically (temp
     file + ``os.replace``), so an exception leaves no partial or temp file behind; files
     finished before the exception stay.
     """
@@ -73,5 +77,7 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
             emit(name, lambda v=view: plot_residuals(v, t0))
         emit("consistency.png", lambda: plot_consistency(views, t0))
         emit("coverage.png", lambda: plot_coverage(views, tracks, t0))
+        if calibration:
+            emit("calibration.png", lambda: plot_calibration(calibration))
     log.info("report: %d figures in %s", len(written), report_dir)
     return written

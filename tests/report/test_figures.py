@@ -10,7 +10,7 @@ import pytest
 
 from rangeproc.report import figures as figmod
 from rangeproc.report import write_report
-from rangeproc.report.common import decimate_indices, merge_sensors, safe_name
+from rangeproc.report.common import decimate_indices, merge_sensors, safe_name, save_figure
 from rangeproc.report.consistency import window_nis
 from rangeproc.report.timeline import used_spans
 from rangeproc.results import SensorResiduals, TrackEstimate
@@ -294,3 +294,27 @@ def test_binned_extreme_matches_a_loop() -> None:
         sel = (t >= edges[i]) & (t < edges[i + 1]) & np.isfinite(v)
         expect = v[sel].max() if sel.any() else np.nan
         np.testing.assert_equal(got[i], expect)
+
+
+def test_calibration_figure_draws_estimates_and_lists_what_was_not_estimated(
+        tmp_path: Path) -> None:
+    from rangeproc.report.calibration import _notes, _rows, plot_calibration
+    cal = {"R1": {"range": {"estimate": 15.1, "sigma": 0.2, "unit": "m", "applied": True},
+                  "azimuth": {"estimate": 1e-5, "sigma": 2e-5, "unit": "rad",
+                              "applied": False, "given": 1e-4},
+                  "latency": {"estimate": None, "sigma": None,
+                              "unobservable": "no absolute reference"}},
+           "G1": {"latency": {"estimate": None, "sigma": None, "unobservable": "reference"}},
+           "S1": {"mount_yaw": {"estimate": None, "sigma": None, "unit": "rad",
+                                "not_estimated": "opted out"}}}
+    assert [n for n, _ in _rows(cal, "m")] == ["R1 range"]
+    assert [n for n, _ in _rows(cal, "rad")] == ["R1 azimuth"]
+    assert _notes(cal) == ["R1 latency: no absolute reference", "G1 latency: reference"]
+    fig = plot_calibration(cal)
+    axes = [ax for ax in fig.axes if ax.get_xlabel()]
+    assert [ax.get_xlabel() for ax in axes] == ["range bias (m)",
+                                                "angle bias, mount angle (mrad)"]
+    path = save_figure(fig, tmp_path / "calibration.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # nothing estimated at all still gives a figure
+    save_figure(plot_calibration({"G1": cal["G1"]}), tmp_path / "empty.png")
