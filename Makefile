@@ -4,12 +4,13 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SEEDS ?= 1 2 3 4 5 6
+REG_SEEDS ?= 1 2 3 4 5
 FILTERS ?= ekf
 SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick reproduce accuracy sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -49,6 +50,10 @@ reproduce: $(STAMP)
 ## for each filter of FILTERS, the stated sigmas scaled by SIGMA_FACTOR.
 accuracy: $(STAMP)
 	$(BIN)/python bench/reproduce.py --seeds $(SEEDS) --filters $(FILTERS) --sigma-factor $(SIGMA_FACTOR)
+
+## registration: the registration sweep (simulator faults with truth, calibration on/off), SEEDS.
+registration: $(STAMP)
+	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS)
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
 sample-data: $(STAMP)

@@ -29,6 +29,7 @@ from rangeproc.settings import (  # re-exported: the config's public types
     ANGLE_UNITS as ANGLE_UNITS,
     CALIBRATION_BY_KIND as CALIBRATION_BY_KIND,
     CALIBRATION_NAMES as CALIBRATION_NAMES,
+    REFRACTION_MODELS as REFRACTION_MODELS,
     Config as Config,
     DEFAULT_SIGMAS as DEFAULT_SIGMAS,
     IMM_MODELS as IMM_MODELS,
@@ -60,7 +61,7 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
                     "sage_husa_window", "sage_husa_mean", "maneuver_norm",
                     "stukf_forgetting", "stukf_weakening", "stukf_ratios", "imm_models",
                     "imm_sojourn", "spline_knot_spacing", "spline_anomaly_probability",
-                    "calibration")
+                    "calibration", "refraction", "refractivity", "optical_refractivity")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -370,6 +371,16 @@ class _Validator:
                 SPLINE_PROBABILITY_BOUNDS)
         if "calibration" in t:
             kw["calibration"] = self.boolean(t["calibration"], "processing.calibration")
+        if "refraction" in t:
+            m = self.string(t["refraction"], "processing.refraction")
+            if m not in REFRACTION_MODELS:
+                raise self.error("processing.refraction", f"unknown model {m!r} (expected one "
+                                 f"of: {_join(REFRACTION_MODELS)})")
+            kw["refraction"] = m
+        for name in ("refractivity", "optical_refractivity"):
+            if name in t:
+                kw[name] = self.bounded(t[name], f"processing.{name}", 0.0, 1000.0,
+                                        "N-units")
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():

@@ -32,6 +32,7 @@ from rangeproc.fusion.batch import merge
 from rangeproc.fusion.calibration_summary import calibration_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
+from rangeproc.fusion.refraction_rows import RefractionSettings
 from rangeproc.fusion.registration import SensorCalibration
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.io.logs import SensorLog
@@ -75,7 +76,14 @@ def estimator_settings(cfg: Config) -> EstimatorSettings:
                              spline=p.filter == "spline",
                              spline_probability=p.spline_anomaly_probability,
                              spline_knot_spacing=p.spline_knot_spacing,
-                             calibration=calibration_specs(cfg) if p.calibration else ())
+                             calibration=calibration_specs(cfg) if p.calibration else (),
+                             refraction=None if p.refraction == "none" else RefractionSettings(
+                                 p.refraction,
+                                 tuple({"radar": p.refractivity,
+                                        "theodolite": p.optical_refractivity}.get(s.kind, 0.0)
+                                       for s in cfg.sensors),
+                                 tuple(s.platform is not None for s in cfg.sensors),
+                                 cfg.origin.height))
 
 
 def calibration_specs(cfg: Config) -> tuple[SensorCalibration | None, ...]:

@@ -22,6 +22,10 @@ IMM_MODELS = ("cv", "ca", "ct")
 #: a standard deviation of about 0.83 around 1: beta = 3 (some 2.4 of those above the mean)
 #: keeps noise alone from fading a consistent filter, and a real model error still does.
 STUKF_WEAKENING = 3.0
+#: Optical surface refractivity (N-units) at 1013.25 hPa, 15 C, 0.55 um (Barrell & Sears,
+#: ``frames.refraction.optical_refractivity``).
+OPTICAL_REFRACTIVITY = 277.9
+REFRACTION_MODELS = ("none", "4/3", "exponential")
 #: Calibration terms (``summary.json`` ``calibration.<name>``, data contract section 4), SI.
 CALIBRATION_NAMES = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch",
                      "mount_yaw")
@@ -148,6 +152,10 @@ class ProcessingSettings:
     max_range: physical range limit (m) of radars and laser rangers; also the highest height.
     calibration: estimate the sensors' biases, latency and mount misalignment
         (``fusion.registration``) in the refinement passes.
+    refraction: "none", "4/3" or "exponential": remove atmospheric refraction from radar and
+        theodolite elevations and ranges (``fusion.refraction_rows``) in the refinement passes;
+        refractivity / optical_refractivity: surface refractivity (N-units) of radars and of
+        theodolites (optical; laser ranges too).
     """
 
     gate_probability: float = 0.9999
@@ -170,6 +178,9 @@ class ProcessingSettings:
     spline_knot_spacing: float | None = None
     spline_anomaly_probability: float = 0.999
     calibration: bool = True
+    refraction: str = "none"
+    refractivity: float = 313.0
+    optical_refractivity: float = OPTICAL_REFRACTIVITY
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

@@ -43,6 +43,7 @@ from rangeproc.estimation.spline_filter import spline_params
 from rangeproc.estimation.tuning import local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
+from rangeproc.fusion.refraction_rows import RefractionSettings, refraction_corrections
 from rangeproc.fusion.registration import (
     Calibration,
     SensorCalibration,
@@ -132,6 +133,7 @@ class EstimatorSettings:
     spline_probability: float = 0.999
     spline_knot_spacing: float | None = None
     calibration: tuple[SensorCalibration | None, ...] = ()
+    refraction: RefractionSettings | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -264,12 +266,12 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
                       batch, model_prob, epoch_t[knot] if knot.shape[0] else epoch_t[:0])
 
 
-def corrected_residuals(b: MeasurementBatch, cal: Calibration, dc: np.ndarray,
-                        out: PassResult, meas_epoch: np.ndarray) -> np.ndarray:
-    """The pass's residuals (N, 6) with those of the sensors whose rows the increments ``dc``
-    corrected recomputed (same smoothed track; ``hph`` changes only to second order)."""
-    moved = np.isin(b.sensor, [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0])
-    rows = np.flatnonzero(moved)
+def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,
+                        meas_epoch: np.ndarray) -> np.ndarray:
+    """The pass's residuals (N, 6) with those of the rows of ``sensors`` (indices), whose
+    values were just corrected, recomputed (same smoothed track; ``hph`` changes only to
+    second order)."""
+    rows = np.flatnonzero(np.isin(b.sensor, list(sensors)))
     res = out.res.copy()
     res[rows], _ = smoothed_residuals(meas_epoch[rows], b.model[rows], b.z[rows], b.s[rows],
                                       b.sv[rows], b.Qr[rows], out.xs, out.Ps)
@@ -514,12 +516,17 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         out, b, qq, noise, cal = box.pop(), batch, q, {}, None
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
+            if settings.refraction is not None and p == 0:   # geometry of the first pass
+                b = refraction_corrections(b, out.xs, meas_epoch, settings.refraction)
+                corrected = np.flatnonzero(np.asarray(settings.refraction.surface_n) > 0)
+                out = out._replace(res=corrected_residuals(b, corrected, out, meas_epoch))
             if settings.calibration:
                 cal, dc, rate = register(b, out.xs, out.res, epoch_t, meas_epoch, grid, qq,
                                          settings.calibration, cal)
                 if dc.any():            # the residuals of the corrected rows, same track
                     b = apply_increments(b, cal.terms, dc, rate)
-                    out = out._replace(res=corrected_residuals(b, cal, dc, out, meas_epoch))
+                    moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
+                    out = out._replace(res=corrected_residuals(b, moved, out, meas_epoch))
             if settings.adapt_noise:
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
