@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyproj
 import pytest
 import tomllib
 from click.testing import CliRunner
@@ -26,6 +25,7 @@ from rangeproc.config import load_config
 from rangeproc.errors import ConfigError
 from rangeproc.simulate import ISSUE8_FAULTS, draw_scenario, simulate_scenario
 from rangeproc.simulate import sensors as sn
+from geo_oracle import TO_GEO, ecef, enu_basis
 
 DUR = 40.0
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -35,22 +35,6 @@ FILES = ("R1.csv", "TH1.parquet", "S1.csv", "SHIP_INS.csv", "G1.csv", "MISTRAM.c
 BIASES = {"R1": {"range": 15.0, "azimuth": 0.5e-3, "elevation": 0.5e-3},
           "TH1": {"range": 3.0, "azimuth": 20 * ARCSEC, "elevation": -20 * ARCSEC},
           "S1": {"range": -7.5, "azimuth": -1e-3, "elevation": 2e-3}}
-_TO_ECEF = pyproj.Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
-_TO_GEO = pyproj.Transformer.from_crs("EPSG:4978", "EPSG:4979", always_xy=True)
-
-
-def ecef(lat, lon, h) -> np.ndarray:
-    x, y, z = _TO_ECEF.transform(np.atleast_1d(lon), np.atleast_1d(lat), np.atleast_1d(h))
-    return np.column_stack((x, y, z))
-
-
-def enu_basis(lat, lon) -> np.ndarray:
-    """(M, 3, 3): rows = east, north, up unit vectors in ECEF."""
-    la, lo = np.radians(np.atleast_1d(lat)), np.radians(np.atleast_1d(lon))
-    sl, cl, so, co = np.sin(la), np.cos(la), np.sin(lo), np.cos(lo)
-    z = np.zeros_like(la)
-    return np.stack((np.stack((-so, co, z), -1), np.stack((-sl * co, -sl * so, cl), -1),
-                     np.stack((cl * co, cl * so, sl), -1)), axis=1)
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
@@ -203,13 +187,13 @@ def test_latency_gps_and_mistram(root):
     df, t = run.read("G1")
     np.testing.assert_array_equal(t, clean.read("G1")[1])
     x, v = run.target_ecef(t - lat_g)
-    lon, lat, h = _TO_GEO.transform(x[:, 0], x[:, 1], x[:, 2])
+    lon, lat, h = TO_GEO.transform(x[:, 0], x[:, 1], x[:, 2])
     np.testing.assert_allclose(df["lat"], lat, atol=1e-9)
     np.testing.assert_allclose(df["lon"], lon, atol=1e-9)
     np.testing.assert_allclose(df["height"], h, atol=1e-3)
     v_rx = np.einsum("mij,mj->mi", enu_basis(lat, lon), v)
     np.testing.assert_allclose(df[["ve", "vn", "vu"]].to_numpy(), v_rx, atol=1e-4)
-    assert np.abs(df["height"] - _TO_GEO.transform(*run.target_ecef(t)[0].T)[2]).max() > 0.01
+    assert np.abs(df["height"] - TO_GEO.transform(*run.target_ecef(t)[0].T)[2]).max() > 0.01
 
     df, t = run.read("MISTRAM")
     np.testing.assert_array_equal(t, clean.read("MISTRAM")[1])

@@ -11,30 +11,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyproj
 import pytest
 import tomllib
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from rangeproc.simulate import draw_scenario, simulate_scenario
+from geo_oracle import TO_GEO, ecef, enu_basis
 
-_TO_ECEF = pyproj.Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
-_TO_GEO = pyproj.Transformer.from_crs("EPSG:4978", "EPSG:4979", always_xy=True)
 DUR = 90.0
 
-
-def ecef(lat, lon, h) -> np.ndarray:
-    x, y, z = _TO_ECEF.transform(np.atleast_1d(lon), np.atleast_1d(lat), np.atleast_1d(h))
-    return np.column_stack((x, y, z))
-
-
-def enu_basis(lat, lon) -> np.ndarray:
-    """(M, 3, 3): rows = east, north, up unit vectors in ECEF."""
-    la, lo = np.radians(np.atleast_1d(lat)), np.radians(np.atleast_1d(lon))
-    sl, cl, so, co = np.sin(la), np.cos(la), np.sin(lo), np.cos(lo)
-    z = np.zeros_like(la)
-    return np.stack((np.stack((-so, co, z), -1), np.stack((-sl * co, -sl * so, cl), -1),
-                     np.stack((cl * co, cl * so, sl), -1)), axis=1)
 
 
 class Run:
@@ -155,7 +140,7 @@ def test_gps_matches_truth_iso_time(root):
     assert df["time"].str.endswith("Z").all()
     assert run.sensor["G1"]["time_offset"] == 0.05
     x, v = run.target_ecef(t)
-    lon, lat, h = _TO_GEO.transform(x[:, 0], x[:, 1], x[:, 2])
+    lon, lat, h = TO_GEO.transform(x[:, 0], x[:, 1], x[:, 2])
     np.testing.assert_allclose(df["lat"], lat, atol=1e-9)
     np.testing.assert_allclose(df["lon"], lon, atol=1e-9)
     np.testing.assert_allclose(df["height"], h, atol=1e-3)
