@@ -18,7 +18,10 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    Kalman smoother, i.e. a Gauss-Newton step on the whole flight: Bell, "The iterated Kalman
    smoother as a Gauss-Newton method", SIAM J. Optim. 1994), and, with ``adapt_noise``,
    re-estimating the measurement noise from the residuals (global and burst-local) and the
-   local process noise (EM).
+   local process noise (EM); before each refinement pass, when configured, refraction is
+   removed from the rows (``fusion.refraction_rows``, once) and the sensors' biases, latency
+   and mount misalignment are registered and removed (``fusion.registration``), and the
+   calibration's uncertainty is finally added to the output epochs' covariance.
 """
 from __future__ import annotations
 
