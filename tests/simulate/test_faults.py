@@ -17,7 +17,6 @@ import pandas as pd
 import pytest
 import tomllib
 from click.testing import CliRunner
-from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation
 
 from rangeproc.cli import main
@@ -25,7 +24,7 @@ from rangeproc.config import load_config
 from rangeproc.errors import ConfigError
 from rangeproc.simulate import ISSUE8_FAULTS, draw_scenario, simulate_scenario
 from rangeproc.simulate import sensors as sn
-from geo_oracle import TO_GEO, ecef, enu_basis
+from geo_oracle import TO_GEO, ecef, enu_basis, truth_splines
 
 DUR = 40.0
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -55,12 +54,7 @@ class Run:
         o = self.cfg["range"]["origin"]
         self.o_ecef = ecef(o["lat"], o["lon"], o["height"])[0]
         self.o_rot = enu_basis(o["lat"], o["lon"])[0]
-        truth = pd.read_csv(folder / "truth.csv")
-        t = truth["time"].to_numpy()
-        self.p = CubicHermiteSpline(t, truth[["e", "n", "u"]].to_numpy(),
-                                    truth[["ve", "vn", "vu"]].to_numpy())
-        self.v = CubicHermiteSpline(t, truth[["ve", "vn", "vu"]].to_numpy(),
-                                    truth[["ae", "an", "au"]].to_numpy())
+        self.p, self.v = truth_splines(folder)
 
     def read(self, sid: str) -> tuple[pd.DataFrame, np.ndarray]:
         """The sensor's rows and their measurement times (stamp + time_offset, s)."""

@@ -13,10 +13,10 @@ import numpy as np
 import pandas as pd
 import pytest
 import tomllib
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
+from scipy.interpolate import CubicSpline
 
 from rangeproc.simulate import draw_scenario, simulate_scenario
-from geo_oracle import TO_GEO, ecef, enu_basis
+from geo_oracle import TO_GEO, ecef, enu_basis, truth_splines
 
 DUR = 90.0
 
@@ -31,12 +31,7 @@ class Run:
         o = self.cfg["range"]["origin"]
         self.o_ecef = ecef(o["lat"], o["lon"], o["height"])[0]
         self.o_rot = enu_basis(o["lat"], o["lon"])[0]
-        truth = pd.read_csv(self.dir / "truth.csv")
-        t = truth["time"].to_numpy()
-        self.p = CubicHermiteSpline(t, truth[["e", "n", "u"]].to_numpy(),
-                                    truth[["ve", "vn", "vu"]].to_numpy())
-        self.v = CubicHermiteSpline(t, truth[["ve", "vn", "vu"]].to_numpy(),
-                                    truth[["ae", "an", "au"]].to_numpy())
+        self.p, self.v = truth_splines(self.dir)
 
     def read(self, sid: str) -> tuple[pd.DataFrame, np.ndarray]:
         path = self.dir / self.sensor[sid]["file"]
