@@ -30,6 +30,7 @@ from rangeproc.settings import (  # re-exported: the config's public types
     CALIBRATION_BY_KIND as CALIBRATION_BY_KIND,
     CALIBRATION_NAMES as CALIBRATION_NAMES,
     REFRACTION_MODELS as REFRACTION_MODELS,
+    calibration_terms as calibration_terms,
     Config as Config,
     DEFAULT_SIGMAS as DEFAULT_SIGMAS,
     IMM_MODELS as IMM_MODELS,
@@ -470,8 +471,7 @@ class _Validator:
                                                 "(only mistram)")
 
         sigma = self.sigma(t.get("sigma", {}), f"{key}.sigma", kind, unit)
-        names = tuple(n for n in CALIBRATION_BY_KIND[kind]
-                      if platform is not None or not n.startswith("mount_"))
+        names = calibration_terms(kind, platform is not None)
         calibrate = self.calibrate(t.get("calibrate", True), f"{key}.calibrate", names)
         known = self.known_calibration(t.get("calibration", {}), f"{key}.calibration",
                                        tuple(n for n in names if n != "latency"), unit)

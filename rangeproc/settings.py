@@ -35,6 +35,12 @@ CALIBRATION_BY_KIND: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "gps": ("latency",), "ins": ()})
 
 
+def calibration_terms(kind: str, on_platform: bool) -> tuple[str, ...]:
+    """The calibration terms of a sensor of this kind (mount terms only on a platform)."""
+    return tuple(n for n in CALIBRATION_BY_KIND[kind]
+                 if on_platform or not n.startswith("mount_"))
+
+
 @dataclass(frozen=True, kw_only=True, slots=True)
 class Geodetic:
     """A WGS-84 point: ``lat``, ``lon`` in degrees (east positive), ``height`` in metres."""

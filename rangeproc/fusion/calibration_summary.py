@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rangeproc.config import CALIBRATION_BY_KIND, SensorSettings
+from rangeproc.config import SensorSettings, calibration_terms
 from rangeproc.fusion.registration import UNIT, Calibration, SensorCalibration
 
 GPS_REFERENCE = "GPS is the absolute reference of position and time"
@@ -23,8 +23,7 @@ MISTRAM_REFERENCE = "no GPS on this target: MISTRAM is the time reference"
 
 def sensor_terms(s: SensorSettings) -> tuple[str, ...]:
     """The calibration terms the contract reports for this sensor."""
-    return tuple(n for n in CALIBRATION_BY_KIND[s.kind]
-                 if s.platform is not None or not n.startswith("mount_"))
+    return calibration_terms(s.kind, s.platform is not None)
 
 
 def _given(s: SensorSettings, name: str) -> float:
