@@ -281,11 +281,10 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     p = len(terms)
     total = previous.applied.copy() if previous is not None else np.zeros(p)
     node_t = _nodes(epoch_t, grid)
-    if p == 0 or not np.isfinite(xs[:, :N_NODE]).all():
-        why = "no finite track to register against" if p else ""
-        empty = np.zeros((len(node_t), N_NODE, N_NODE))
-        return (Calibration(terms, total, total.copy(), np.zeros((p, p)), (why,) * p, node_t,
-                            empty), np.zeros(p), np.zeros((len(batch), 4)))
+    if p == 0:                        # nothing to estimate (e.g. range rates alone)
+        return (Calibration(terms, total, total, np.zeros((0, 0)), (), node_t,
+                            np.zeros((len(node_t), N_NODE, N_NODE))),
+                np.zeros(0), np.zeros((len(batch), 4)))
     node = _nearest(node_t, batch.t)
     moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
     mv_index, rates = axes_rate(batch, moving)
