@@ -32,6 +32,18 @@ BURST, HUBER = 1, 2
 MIN_ROWS = 20
 
 
+def robust_spread(x: np.ndarray, *, max_samples: int = 200_000) -> float:
+    """1.4826 x median absolute deviation of the finite values of ``x`` (an evenly spaced
+    subsample of at most ``max_samples``, first and last included); NaN when none."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size > max_samples:
+        x = x[np.unique(np.linspace(0, x.size - 1, max_samples).astype(np.int64))]
+    if x.size == 0:
+        return float("nan")
+    return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
+
+
 def _groups(batch: MeasurementBatch) -> list[np.ndarray]:
     """Row indices (time ordered) of each independent series: sensor x station x track."""
     key = (batch.sensor * 1_000_003 + (batch.station + 1)) * 1_000_003 + (batch.track + 1)

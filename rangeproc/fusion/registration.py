@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rangeproc.editing.noise import MAD_TO_SIGMA
+from rangeproc.editing.noise import robust_spread
 from rangeproc.estimation.registration import (
     LATENCY_SLOT,
     MOUNT_SLOT,
@@ -199,12 +199,6 @@ def axes_rate(batch: MeasurementBatch, moving: np.ndarray
     return index, np.ascontiguousarray(rates)
 
 
-def _robust_scale(x: np.ndarray, max_samples: int = 100_000) -> float:
-    """1.4826 MAD of ``x`` (an evenly thinned subset of at most ``max_samples`` values)."""
-    x = x[::max(1, len(x) // max_samples)]
-    return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
-
-
 def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: bool
              ) -> np.ndarray:
     """(N, 6) weights 1/sigma^2 from residuals ``r`` of the rows of each sensor (``groups``):
@@ -223,11 +217,11 @@ def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: b
                 continue
             if first:
                 med = np.median(u[have])
-                scale = max(_robust_scale(u[have]), 1e-12)
+                scale = max(robust_spread(u[have], max_samples=100_000), 1e-12)
                 keep = have & (np.abs(u - med) <= PRE_WILD * scale)
                 Wg[keep, c] = 1.0 / sc[keep] ** 2
                 continue
-            f = max(_robust_scale(u[have]), 0.2)
+            f = max(robust_spread(u[have], max_samples=100_000), 0.2)
             un = np.where(have, np.abs(u) / f, np.inf)
             keep = un <= WILD
             huber = np.minimum(1.0, HUBER_K / np.maximum(un[keep], 1e-12))

@@ -302,17 +302,6 @@ def break_gaps(t: np.ndarray, *ys: np.ndarray, factor: float = 3.0) -> tuple[np.
     return tuple(out)
 
 
-def robust_spread(x: np.ndarray, *, max_samples: int = 200_000) -> float:
-    """1.4826 x median absolute deviation of the finite values (an evenly strided subsample)."""
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    if x.size > max_samples:
-        x = x[stride_indices(x.size, max_samples)]
-    if x.size == 0:
-        return float("nan")
-    return float(1.4826 * np.median(np.abs(x - np.median(x))))
-
-
 def display_unit(unit: str) -> tuple[float, str]:
     """(scale, label) to show an SI quantity: radians as mrad, everything else unchanged."""
     table = {"rad": (1.0e3, "mrad"), "rad/s": (1.0e3, "mrad/s"), "m": (1.0, "m"),

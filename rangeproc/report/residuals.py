@@ -13,6 +13,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from rangeproc.editing.noise import robust_spread
 from rangeproc.report.common import (
     CYCLE,
     REJECT_COLOR,
@@ -21,7 +22,6 @@ from rangeproc.report.common import (
     decimate_indices,
     display_unit,
     new_figure,
-    robust_spread,
     t0_note,
     time_label,
 )
