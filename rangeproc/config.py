@@ -62,7 +62,8 @@ _PROCESSING_KEYS = ("gate_probability", "noise_passes", "adapt_noise", "process_
                     "sage_husa_window", "sage_husa_mean", "maneuver_norm",
                     "stukf_forgetting", "stukf_weakening", "stukf_ratios", "imm_models",
                     "imm_sojourn", "spline_knot_spacing", "spline_anomaly_probability",
-                    "calibration", "refraction", "refractivity", "optical_refractivity")
+                    "calibration", "refraction", "refractivity", "optical_refractivity",
+                    "hampel_window", "hampel_threshold")
 
 # Plausibility bounds of config numbers: a finite value outside them is a typo or a unit
 # mistake, and would overflow or exhaust the processing (e.g. rate_hz = 1e9 asks for a
@@ -382,6 +383,16 @@ class _Validator:
             if name in t:
                 kw[name] = self.bounded(t[name], f"processing.{name}", 0.0, 1000.0,
                                         "N-units")
+        if "hampel_window" in t:
+            w = t["hampel_window"]
+            if not isinstance(w, int) or isinstance(w, bool) or not 0 <= w <= 1000:
+                raise self.error("processing.hampel_window",
+                                 f"expected an integer in [0, 1000], got {_show(w)}")
+            kw["hampel_window"] = w
+        if "hampel_threshold" in t:
+            kw["hampel_threshold"] = self.bounded(t["hampel_threshold"],
+                                                  "processing.hampel_threshold", 1.0, 1e6,
+                                                  "robust sigmas")
         if "sage_husa_mean" in t:
             kw["sage_husa_mean"] = self.boolean(t["sage_husa_mean"], "processing.sage_husa_mean")
         for name, (lo, hi) in PROCESSING_BOUNDS.items():

@@ -162,6 +162,8 @@ class ProcessingSettings:
         theodolite elevations and ranges (``fusion.refraction_rows``) in the refinement passes;
         refractivity / optical_refractivity: surface refractivity (N-units) of radars and of
         theodolites (optical; laser ranges too).
+    hampel_window, hampel_threshold: half-width (samples) and threshold (robust sigmas) of the
+        Hampel pre-edit (``editing.hampel``); ``hampel_window = 0`` switches it off.
     """
 
     gate_probability: float = 0.9999
@@ -187,6 +189,8 @@ class ProcessingSettings:
     refraction: str = "none"
     refractivity: float = 313.0
     optical_refractivity: float = OPTICAL_REFRACTIVITY
+    hampel_window: int = 7
+    hampel_threshold: float = 6.0
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

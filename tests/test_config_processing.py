@@ -68,3 +68,14 @@ def test_processing_errors_name_the_key(tmp_path, extra, key):
         load_config(_write(tmp_path, extra))
     msg = str(exc.value)
     assert "c.toml" in msg and key in msg and "\n" not in msg
+
+
+
+def test_hampel_keys_are_read_and_checked(tmp_path):
+    cfg = load_config(_write(tmp_path, "\n[processing]\nhampel_window = 0\n"
+                                       "hampel_threshold = 4.5\n"))
+    assert (cfg.processing.hampel_window, cfg.processing.hampel_threshold) == (0, 4.5)
+    with pytest.raises(ConfigError, match="processing.hampel_window"):
+        load_config(_write(tmp_path, "\n[processing]\nhampel_window = 2.5\n"))
+    with pytest.raises(ConfigError, match="processing.hampel_threshold"):
+        load_config(_write(tmp_path, "\n[processing]\nhampel_threshold = 0.1\n"))

@@ -23,10 +23,13 @@ Limits (SI; the bounds are settings of :class:`Limits`, in ``[processing]``):
   is kept only when the step from the last kept fix to it is possible (a run of wild fixes at
   the start, or a stretch of corrupt ones, is edited however long it is, as long as it is
   shorter than the good data).
-  Fixed-site radar/theodolite with range, per track: only an isolated spike, a fix whose steps
-  to *both* neighbours are impossible (at either end, the first/last fix whose one step is
-  impossible while the next step is possible): a track may legitimately jump to another
-  object (a lock swap), which is for the association stage to sort out. Plots (radar rows
+  Fixed-site radar/theodolite with range, per track: an isolated spike, a fix whose steps
+  to *both* neighbours are impossible, and a short run at either end of the track (at most
+  a tenth of its fixes, ``EDGE_RUN_FRACTION``) cut off from the rest by an impossible step
+  that the next step confirms (acquisition transients: a run of wild points at track start,
+  which no local test sees when it is longer than its window). Any other jump stays: a track
+  may legitimately jump to another object (a lock swap), which is for the association stage
+  to sort out. Plots (radar rows
   without ``track_id``) and platform-mounted sensors are not speed-checked (several objects,
   a rotating deck frame).
 """
@@ -52,6 +55,9 @@ MAX_WRAPPED_ANGLE = 4.0 * math.pi
 #: Multipliers of the speed test's noise tolerance.
 SPEED_SIGMA_FACTOR = 10.0
 SPEED_STEP_FACTOR = 10.0
+#: A run of fixes at a track's start or end cut off by an impossible step is edited when it
+#: holds at most 1/EDGE_RUN_FRACTION of the track's fixes.
+EDGE_RUN_FRACTION = 10
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -122,11 +128,12 @@ def apply_limits(log: SensorLog, settings: SensorSettings, record: EditRecord,
         for col in cols:
             edit(col, bad & ~np.isnan(edited.columns[col]), "speed")
         edited = replace_columns(log, new)
-    return _drop_empty_rows(edited, record)
+    return drop_empty_rows(edited, record, "limit")
 
 
-def _drop_empty_rows(log: SensorLog, record: EditRecord) -> SensorLog:
-    """Remove rows with nothing measured left (INS: any attitude/position value missing)."""
+def drop_empty_rows(log: SensorLog, record: EditRecord, reason: str) -> SensorLog:
+    """Remove rows with nothing measured left (INS: any attitude/position value missing; the
+    rest of such a row is recorded with ``reason``, its edited components already were)."""
     if log.kind == "ins":
         need = ("roll", "pitch", "yaw", "lat", "lon", "height")
         empty = np.zeros(len(log), dtype=bool)
@@ -139,7 +146,7 @@ def _drop_empty_rows(log: SensorLog, record: EditRecord) -> SensorLog:
     if not empty.any():
         return log
     if log.kind == "ins":   # the edited components were recorded; the rest of the row goes too
-        record.add(log.sensor_id, "limit", ALL_COMPONENTS, log.row[empty], log.time[empty])
+        record.add(log.sensor_id, reason, ALL_COMPONENTS, log.row[empty], log.time[empty])
     return select_rows(log, ~empty)
 
 
@@ -213,8 +220,15 @@ def _spikes(t: np.ndarray, p: np.ndarray, sigma: np.ndarray, max_speed: float) -
     k = np.arange(m - 1)
     wrong = ~_possible(t, p, sigma, _median_step(p), max_speed, k, k + 1)
     out[1:-1] = wrong[:-1] & wrong[1:]
-    out[0] = wrong[0] and not wrong[1]
-    out[-1] = wrong[-1] and not wrong[-2]
+    breaks = np.flatnonzero(wrong)
+    if breaks.size == 0:
+        return out
+    longest = max(1, m // EDGE_RUN_FRACTION)
+    first, last = int(breaks[0]), int(breaks[-1])     # steps first -> first + 1, ...
+    if first + 1 <= longest and (first + 1 == m - 1 or not wrong[first + 1]):
+        out[:first + 1] = True                        # a short run before the first break
+    if m - 1 - last <= longest and (last == 0 or not wrong[last - 1]):
+        out[last + 1:] = True                         # a short run after the last break
     return out
 
 

@@ -2,7 +2,7 @@
 
 Order: time stamps (``editing.timecheck``: beyond the representable range, repeated stamps of
 GPS/INS, isolated far stamps), then physical limits and impossible jumps
-(``editing.limits``), then the cross-sensor time overlap (a sensor on the wrong time scale is
+(``editing.limits``), then the Hampel pre-edit of wild values (``editing.hampel``), then the cross-sensor time overlap (a sensor on the wrong time scale is
 refused). Every removed row or component goes into the run's :class:`EditRecord`.
 """
 from __future__ import annotations
@@ -11,6 +11,7 @@ import logging
 from collections.abc import Callable
 
 from rangeproc.config import Config
+from rangeproc.editing.hampel import pre_edit
 from rangeproc.editing.limits import Limits, apply_limits
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.timecheck import check_overlap, edit_time
@@ -36,6 +37,8 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
     for s in cfg.sensors:
         edited = edit_time(logs[s.id], s, record, max_gap=p.max_gap)
         edited = apply_limits(edited, s, record, limits)
+        edited = pre_edit(edited, record, half_width=p.hampel_window,
+                          threshold=p.hampel_threshold)
         counts = record.counts(s.id)
         if counts:       # a time edit is rare and worth a word; the rest is in the summary
             (log.warning if "time" in counts else log.info)(

@@ -33,6 +33,8 @@ from rangeproc.models.measurement import COMPONENTS
 
 EDIT_COLUMNS = ("sensor", "row", "time", "component", "value", "residual",
                 "normalised_residual", "weight", "reason")
+#: Smallest post-fit spread of a used component, as a fraction of its global sigma.
+MIN_SPREAD_FRACTION = 0.1
 #: ``reason`` of the down-weighting codes of ``editing.noise.residual_sigma``.
 DOWN_WEIGHT_REASONS = {BURST: "burst", HUBER: "residual"}
 
@@ -62,7 +64,9 @@ def down_weighted(result: FusionResult, logs: Mapping[str, SensorLog]) -> pd.Dat
     r, c = np.nonzero(result.used & (result.down_weight > 0))
     glob = np.array([result.noise.get((int(s), int(j)), np.nan)
                      for s, j in zip(b.sensor[r], c)])
-    spread = np.sqrt(np.maximum(glob ** 2 - result.hph[r, c], 1e-300))
+    # the post-fit residual's spread; where the track is so uncertain that H P_s H^T reaches
+    # sigma^2 (a poorly observed start), a tenth of sigma keeps the ratio finite and honest
+    spread = np.sqrt(np.maximum(glob ** 2 - result.hph[r, c], (MIN_SPREAD_FRACTION * glob) ** 2))
     reason = np.vectorize(DOWN_WEIGHT_REASONS.get, otypes=[object])(result.down_weight[r, c])
     return _components(result, logs, r, c, spread, (glob / b.sigma[r, c]) ** 2, reason)
 

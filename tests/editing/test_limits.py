@@ -88,6 +88,24 @@ def test_a_jump_at_the_start_is_caught() -> None:
     assert np.flatnonzero(bad).tolist() == [0]
 
 
+def test_a_run_of_wild_fixes_at_either_end_of_a_track_is_cut() -> None:
+    r, az, el, t = straight_track(300)
+    r = r.copy()
+    r[:25] += 3000.0                                 # acquisition transient: 25 fixes
+    r[-4:] -= 4000.0                                 # and a short run at the end
+    _, bad = speed_spikes(radar_log(r, az, el, t=t), radar_settings(), Limits())
+    assert np.flatnonzero(bad).tolist() == [*range(25), *range(296, 300)]
+
+
+def test_a_long_jump_inside_a_track_is_left_for_association() -> None:
+    r, az, el, t = straight_track(300)
+    r = r.copy()
+    r[:40] += 3000.0                                 # more than a tenth of the track: a swap?
+    r[150:] += 6000.0                                # a jump in the middle: another object
+    _, bad = speed_spikes(radar_log(r, az, el, t=t), radar_settings(), Limits())
+    assert not bad.any()
+
+
 def test_gps_height_and_velocity_limits() -> None:
     n = 30
     cols = {"lat": np.full(n, 35.0), "lon": np.full(n, -117.0), "height": np.full(n, 3000.0),
