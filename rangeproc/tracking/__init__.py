@@ -1,0 +1,1 @@
+"""Several objects at once: per-sensor tracking into segments, association across sensors."""

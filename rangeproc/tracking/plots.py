@@ -1,0 +1,195 @@
+"""Plots without a track number (a surveillance radar): a multi-target tracker with clutter.
+
+Rows without ``track_id`` are plots of anything in view, clutter included (DATA_CONTRACT
+section 2). They are tracked per sensor in the range ENU frame:
+
+* **Scans.** A rotating radar reports in azimuth order, so a scan ends where the azimuth
+  wraps (falls by more than half a turn); a sensor whose plots do not sweep is cut into frames
+  of ``FRAME_SECONDS``. An object gives at most one plot per scan.
+* **Prediction**: a constant-velocity model with white-acceleration noise of PSD
+  ``ACCELERATION_PSD`` ((m/s^2)^2/s, a 3 g manoeuvre over a few seconds stays inside the gate).
+* **Association**: global nearest neighbour per scan (Munkres via
+  ``scipy.optimize.linear_sum_assignment`` on the Mahalanobis distances, gated at chi-square
+  probability ``GATE_PROBABILITY``). GNN rather than JPDA or a plot-level MHT because this is
+  post-processing: every plot is kept with its track, the tracks are smoothed afterwards, and
+  the ambiguous cases (objects closer than the plot noise) are settled at the segment level,
+  across sensors and gaps, by the track-oriented hypothesis search (``tracking.associate``),
+  which sees far more evidence than one scan.
+* **Initiation and clutter**: an unassigned plot starts a tentative track; its second plot
+  must lie within ``INITIATION_SPEED`` times the elapsed time (plus the plot noise); a track is
+  confirmed after ``CONFIRM_HITS`` hits in its first ``CONFIRM_SCANS`` scans. Clutter, uniform
+  over the coverage, seldom builds such a chain; plots of tracks never confirmed are clutter.
+* **Deletion**: after ``MAX_MISSES`` scans in a row without a plot (detection probability
+  0.9 makes five misses in a row a 1e-5 event), or a tentative track not confirmed in time.
+
+Positions come from the plots' range, azimuth and elevation; a plot without elevation (a 2-D
+radar) is placed at elevation 0 with ``NO_ELEVATION_SIGMA`` of uncertainty.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
+
+#: White-acceleration PSD of the constant-velocity model ((m/s^2)^2 / s).
+ACCELERATION_PSD = 400.0
+#: Gate probability of a plot-to-track distance (3 degrees of freedom).
+GATE_PROBABILITY = 0.9999
+#: Fastest object a new track may be (m/s); its second plot must be reachable.
+INITIATION_SPEED = 1500.0
+#: Confirmation: hits among the first scans of a tentative track.
+CONFIRM_HITS = 3
+CONFIRM_SCANS = 4
+#: Scans in a row without a plot that end a confirmed track.
+MAX_MISSES = 5
+#: Frame length (s) of a sensor whose plots do not sweep in azimuth.
+FRAME_SECONDS = 1.0
+#: Elevation sigma (rad) given to plots without elevation (placed at elevation 0).
+NO_ELEVATION_SIGMA = 0.1
+
+
+def scan_numbers(t: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """(N,) int64 scan number of each plot (time ordered): a new scan where the azimuth wraps;
+    fixed frames when the azimuth does not sweep (fewer than 2 wraps, or wraps more often
+    than every 4 plots on average)."""
+    n = t.size
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    da = np.diff(np.mod(azimuth, 2 * np.pi))
+    wraps = np.concatenate([[False], da < -np.pi])
+    if 2 <= wraps.sum() <= n / 4:
+        return np.cumsum(wraps).astype(np.int64)
+    return np.floor((t - t[0]) / FRAME_SECONDS).astype(np.int64)
+
+
+def plot_positions(r: np.ndarray, az: np.ndarray, el: np.ndarray, sig: np.ndarray,
+                   s: np.ndarray, Qr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ENU positions (N, 3) m and covariances (N, 3, 3) m^2 of plots.
+
+    r, az, el: (N,) slant range (m), azimuth, elevation (rad; NaN elevation -> 0 with
+    ``NO_ELEVATION_SIGMA``) in the sensor's axes; sig: (N, 3) their sigmas; s: (N, 3) sensor
+    position; Qr: (N, 3, 3) rotation range ENU -> sensor axes.
+    """
+    el = np.array(el, dtype=float)
+    sig = np.array(sig, dtype=float)
+    flat = ~np.isfinite(el)
+    el[flat] = 0.0
+    sig[flat, 2] = NO_ELEVATION_SIGMA
+    ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
+    d = np.column_stack([r * ce * sa, r * ce * ca, r * se])
+    # Jacobian of d wrt (r, az, el) in the sensor axes
+    J = np.empty((r.size, 3, 3))
+    J[:, :, 0] = np.column_stack([ce * sa, ce * ca, se])
+    J[:, :, 1] = np.column_stack([r * ce * ca, -r * ce * sa, np.zeros_like(r)])
+    J[:, :, 2] = np.column_stack([-r * se * sa, -r * se * ca, r * ce])
+    Rl = J @ (sig[:, :, None] ** 2 * np.eye(3)) @ np.transpose(J, (0, 2, 1))
+    QrT = np.transpose(Qr, (0, 2, 1))
+    p = s + np.einsum("nij,nj->ni", QrT, d)
+    return p, QrT @ Rl @ Qr
+
+
+@dataclass(slots=True)
+class _Track:
+    """A track under way: CV state x (6,) [p, v] in ENU, covariance P (6, 6), time t (s)."""
+
+    x: np.ndarray
+    P: np.ndarray
+    t: float
+    first_scan: int
+    last_scan: int
+    hits: int = 1
+    confirmed: bool = False
+    rows: list[int] = field(default_factory=list)
+
+
+def _predict(tr: _Track, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CV prediction of ``tr`` to times ``t`` (A,): states (A, 6), covariances (A, 6, 6)."""
+    dt = np.asarray(t, dtype=float) - tr.t
+    a = dt.size
+    F = np.broadcast_to(np.eye(6), (a, 6, 6)).copy()
+    for k in range(3):
+        F[:, k, k + 3] = dt
+    q = ACCELERATION_PSD
+    Q = np.zeros((a, 6, 6))
+    for k in range(3):
+        Q[:, k, k] = q * np.abs(dt) ** 3 / 3
+        Q[:, k, k + 3] = Q[:, k + 3, k] = q * dt * np.abs(dt) / 2
+        Q[:, k + 3, k + 3] = q * np.abs(dt)
+    return F @ tr.x, F @ tr.P @ np.transpose(F, (0, 2, 1)) + Q
+
+
+def _start(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> _Track:
+    P = np.zeros((6, 6))
+    P[:3, :3] = R
+    P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)   # 3 sigma = the speed bound
+    return _Track(np.concatenate([p, np.zeros(3)]), P, t, scan, scan, rows=[row])
+
+
+def _update(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.ndarray,
+            t: float, scan: int, row: int) -> None:
+    S = P[:3, :3] + R
+    K = np.linalg.solve(S, P[:3, :]).T
+    tr.x = x + K @ (p - x[:3])
+    tr.P = P - K @ P[:3, :]
+    tr.P = 0.5 * (tr.P + tr.P.T)
+    tr.t = t
+    tr.last_scan = scan
+    tr.hits += 1
+    tr.rows.append(row)
+
+
+def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
+                ) -> np.ndarray:
+    """(N,) int64 track label per plot (0, 1, ... in order of confirmation; -1 = clutter).
+
+    t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) scan numbers
+    (:func:`scan_numbers`). See the module docstring for the method.
+    """
+    gate = float(chi2.ppf(GATE_PROBABILITY, 3))
+    live: list[_Track] = []
+    done: list[_Track] = []
+    order = np.argsort(scan, kind="stable")
+    bounds = np.flatnonzero(np.diff(scan[order])) + 1
+    for rows in np.split(order, bounds):
+        k = int(scan[rows[0]])
+        cost = np.full((rows.size, len(live)), np.inf)
+        preds = []
+        for j, tr in enumerate(live):
+            x, P = _predict(tr, t[rows])
+            preds.append((x, P))
+            S = P[:, :3, :3] + R[rows]
+            d = p[rows] - x[:, :3]
+            m2 = np.einsum("ai,ai->a", d, np.linalg.solve(S, d[:, :, None])[:, :, 0])
+            ok = m2 <= gate
+            cost[ok, j] = m2[ok] + np.linalg.slogdet(S[ok])[1]
+        taken = np.zeros(rows.size, dtype=bool)
+        if live and rows.size:
+            big = 1e12
+            a_idx, j_idx = linear_sum_assignment(np.where(np.isfinite(cost), cost, big))
+            for a, j in zip(a_idx, j_idx):
+                if np.isfinite(cost[a, j]):
+                    x, P = preds[j][0][a], preds[j][1][a]
+                    _update(live[j], x, P, p[rows[a]], R[rows[a]], t[rows[a]], k,
+                            int(rows[a]))
+                    taken[a] = True
+        for tr in live:
+            if not tr.confirmed and tr.hits >= CONFIRM_HITS:
+                tr.confirmed = True
+        keep = []
+        for tr in live:
+            missed = k - tr.last_scan
+            expired = (missed >= MAX_MISSES if tr.confirmed
+                       else k - tr.first_scan >= CONFIRM_SCANS - 1 and tr.hits < CONFIRM_HITS)
+            (done if expired else keep).append(tr)
+        live = keep
+        for a in np.flatnonzero(~taken):
+            i = int(rows[a])
+            live.append(_start(p[i], R[i], t[i], k, i))
+    done.extend(live)
+    label = np.full(t.size, -1, dtype=np.int64)
+    confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])
+    for n, tr in enumerate(confirmed):
+        label[np.asarray(tr.rows)] = n
+    return label
