@@ -42,6 +42,12 @@ from rangeproc.io.writers import file_sha256, write_json, write_parquet
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.progress import StageClock
 from rangeproc.results import SensorResiduals, TrackEstimate
+from rangeproc.tracking.routing import (
+    association_summary,
+    association_table,
+    object_rows,
+    target_of,
+)
 
 log = logging.getLogger(__name__)
 
@@ -131,20 +137,10 @@ def _needs_initial(cfg: Config, target_id: str, why: str) -> DataError:
         "sigma_velocity = 5.0 }")
 
 
-def target_of(sensor: SensorSettings, cfg: Config) -> str:
-    """The target a sensor's rows belong to (single-target association)."""
-    if sensor.target is not None:
-        return sensor.target
-    return cfg.targets[0].id
-
-
 def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
                  tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, Assembled]:
     """Stage 2: measurement rows with geometry for every non-INS sensor."""
     ins = {s.id: logs[s.id] for s in cfg.sensors if s.kind == "ins"}
-    if len(cfg.targets) > 1 and any(s.kind in ("radar", "theodolite") for s in cfg.sensors):
-        log.warning("several targets declared: radar/theodolite rows are assigned to %s "
-                    "(multi-target association is not implemented yet)", cfg.targets[0].id)
     out = {}
     for s in cfg.sensors:
         if s.kind == "ins":
@@ -218,36 +214,36 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     fused: list[tuple[str, FusionResult]] = []
     n_no_platform = {sid: a.n_no_platform for sid, a in rows.items()}
     sites = _sites(cfg, frame, rows)
-    by_target = {tgt.id: [sid for sid in rows
-                          if target_of(cfg.sensors[index[sid]], cfg) == tgt.id]
-                 for tgt in cfg.targets}
-    with clock.stage("fuse", len(cfg.targets) * (1 + settings.noise_passes)) as tick:
-        for tgt in cfg.targets:
-            parts = [(index[sid], rows[sid].rows) for sid in by_target[tgt.id]
-                     if len(rows[sid].rows.t)]
-            for sid in by_target[tgt.id]:           # the merged batch holds the data now
-                del rows[sid]
+    priors = {tgt.id: target_prior(tgt, frame) for tgt in cfg.targets}
+    with clock.stage("associate", 1) as tick:
+        parts_of, synthesis = object_rows(cfg, rows, settings, priors, tick)
+    kept = {sid: a.rows.source_row for sid, a in rows.items()}
+    rows.clear()                                     # the object parts hold the data now
+    with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
+        for oid in list(parts_of):
+            parts = parts_of.pop(oid)
             if not parts:
-                log.warning("target %s: no measurements", tgt.id)
-                tick(1 + settings.noise_passes, tgt.id)
+                log.warning("target %s: no measurements", oid)
+                tick(1 + settings.noise_passes, oid)
                 continue
             batch = merge(parts, sensor_ids)
             del parts
             try:
-                fused.append((tgt.id, fuse_target(
+                fused.append((oid, fuse_target(
                     batch, cfg.output.rate_hz, settings,
-                    tick=lambda n=1, note="", t=tgt.id: tick(n, f"{t} {note}"),
-                    prior=target_prior(tgt, frame))))
+                    tick=lambda n=1, note="", t=oid: tick(n, f"{t} {note}"),
+                    prior=priors.get(oid))))
             except NoPositionFix as exc:
-                raise _needs_initial(cfg, tgt.id, str(exc)) from None
+                if oid in priors:
+                    raise _needs_initial(cfg, oid, str(exc)) from None
+                log.warning("object %s left out: %s", oid, exc)
             del batch
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz)
         tracks.append(track)
-        for sid in by_target[tid]:
-            i = index[sid]
-            if not (result.batch.sensor == i).any():
-                continue
+        for i in np.unique(result.batch.sensor):
+            i = int(i)
+            sid = sensor_ids[i]
             r = sensor_residuals(tid, result, i, kinds[sid])
             residuals.append(r)
             ss = sensor_summary[sid]
@@ -261,7 +257,8 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                 name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
             ss["n_no_platform_geometry"] = n_no_platform[sid]
             ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
-            ss["target"] = tid
+            ss.setdefault("target", tid)
+            ss.setdefault("targets", []).append(tid)
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         t_used = result.batch.t[result.used.any(axis=1)]
@@ -294,6 +291,11 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         with clock.stage("write"):
             write_parquet(fused_table(tracks), stage / "fused.parquet")
             write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
+            write_parquet(association_table(
+                cfg, synthesis, {sid: (lg.row, lg.time) for sid, lg in logs.items()}, kept,
+                {sid: lg.n_read for sid, lg in logs.items()},
+                cfg.targets[0].id if synthesis is None else None),
+                stage / "association.parquet")
         with clock.stage("report", 4 + len(residuals)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
                                    sites=sites, calibration={
@@ -307,12 +309,14 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
                        for s in cfg.sensors},
             "sensors": sensor_summary, "targets": target_summary,
+            "association": association_summary(synthesis, sensor_ids),
             "elapsed_s": time.perf_counter() - started,
             "stage_seconds": dict(clock.seconds),
         }
         with clock.stage("write"):
             write_json(summary, stage / "summary.json")
     written = [out_dir / "fused.parquet", out_dir / "edits.parquet",
+               out_dir / "association.parquet",
                *(out_dir / "report" / f.name for f in figures),
                out_dir / "summary.json"]
     return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary, tuple(written),
@@ -338,6 +342,7 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
         os.replace(stage / "report", out_dir / "report")
         os.replace(stage / "fused.parquet", out_dir / "fused.parquet")
         os.replace(stage / "edits.parquet", out_dir / "edits.parquet")
+        os.replace(stage / "association.parquet", out_dir / "association.parquet")
         os.replace(stage / "summary.json", out_dir / "summary.json")
     finally:
         shutil.rmtree(stage, ignore_errors=True)

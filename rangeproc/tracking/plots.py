@@ -4,8 +4,10 @@ Rows without ``track_id`` are plots of anything in view, clutter included (DATA_
 section 2). They are tracked per sensor in the range ENU frame:
 
 * **Scans.** A rotating radar reports in azimuth order, so a scan ends where the azimuth
-  wraps (falls by more than half a turn); a sensor whose plots do not sweep is cut into frames
-  of ``FRAME_SECONDS``. An object gives at most one plot per scan.
+  wraps (falls by more than half a turn). An object gives at most one plot per scan. Plots of
+  a sensor that does not sweep (:func:`is_rotating`) are not tracked here: such an instrument
+  follows one object at a time, and its plots are segmented like a track
+  (``tracking.segments``).
 * **Prediction**: a constant-velocity model with white-acceleration noise of PSD
   ``ACCELERATION_PSD`` ((m/s^2)^2/s, a 3 g manoeuvre over a few seconds stays inside the gate).
 * **Association**: global nearest neighbour per scan (Munkres via
@@ -44,24 +46,34 @@ CONFIRM_HITS = 3
 CONFIRM_SCANS = 4
 #: Scans in a row without a plot that end a confirmed track.
 MAX_MISSES = 5
-#: Frame length (s) of a sensor whose plots do not sweep in azimuth.
-FRAME_SECONDS = 1.0
+#: A rotating radar: at least this many turns, at most this many seconds per turn.
+MIN_TURNS = 2.0
+MAX_TURN_SECONDS = 30.0
 #: Elevation sigma (rad) given to plots without elevation (placed at elevation 0).
 NO_ELEVATION_SIGMA = 0.1
 
 
+def is_rotating(t: np.ndarray, azimuth: np.ndarray) -> bool:
+    """True when the plots sweep in azimuth like a rotating radar: at least 90 % of the steps
+    go forward, over at least ``MIN_TURNS`` turns, at one turn per ``MAX_TURN_SECONDS`` or
+    faster (an instrument following one object never does that)."""
+    if t.size < 3:
+        return False
+    step = np.mod(np.diff(azimuth), 2 * np.pi)
+    forward = step < np.pi
+    advance = float(step[forward].sum()) / (2 * np.pi)
+    span = float(t[-1] - t[0])
+    return bool(forward.mean() >= 0.9 and advance >= MIN_TURNS
+                and span > 0 and span / advance <= MAX_TURN_SECONDS)
+
+
 def scan_numbers(t: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
-    """(N,) int64 scan number of each plot (time ordered): a new scan where the azimuth wraps;
-    fixed frames when the azimuth does not sweep (fewer than 2 wraps, or wraps more often
-    than every 4 plots on average)."""
-    n = t.size
-    if n == 0:
+    """(N,) int64 scan number of each plot of a rotating radar (time ordered): a new scan
+    where the azimuth wraps (falls by more than half a turn)."""
+    if t.size == 0:
         return np.zeros(0, dtype=np.int64)
     da = np.diff(np.mod(azimuth, 2 * np.pi))
-    wraps = np.concatenate([[False], da < -np.pi])
-    if 2 <= wraps.sum() <= n / 4:
-        return np.cumsum(wraps).astype(np.int64)
-    return np.floor((t - t[0]) / FRAME_SECONDS).astype(np.int64)
+    return np.cumsum(np.concatenate([[False], da < -np.pi])).astype(np.int64)
 
 
 def plot_positions(r: np.ndarray, az: np.ndarray, el: np.ndarray, sig: np.ndarray,

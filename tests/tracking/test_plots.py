@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.tracking.plots import plot_positions, scan_numbers, track_plots
+from rangeproc.tracking.plots import is_rotating, plot_positions, scan_numbers, track_plots
 
 SIG = np.array([30.0, 2e-3, 2e-3])
 
@@ -47,6 +47,7 @@ def surveillance(seed: int = 1, scans: int = 60, period: float = 4.0, clutter: i
 
 def test_scan_numbers_follow_the_azimuth_sweep() -> None:
     t, r, az, el, _ = surveillance(scans=10)
+    assert is_rotating(t, az)
     scan = scan_numbers(t, az)
     assert scan.max() == 9 and np.all(np.diff(scan) >= 0)
     assert np.all(np.floor(t / 4.0).astype(int) == scan)
@@ -76,3 +77,9 @@ def test_a_two_d_radar_without_elevation_is_tracked() -> None:
     for j in range(2):                                      # the straight ones
         mine = label[truth == j]
         assert (mine == np.bincount(mine[mine >= 0]).argmax()).mean() >= 0.85, j
+
+
+def test_an_instrument_following_one_object_is_not_a_rotating_radar() -> None:
+    t = np.arange(2400) * 0.05
+    az = np.mod(6.0 + 0.02 * t, 2 * np.pi)          # crosses north, slowly
+    assert not is_rotating(t, az)

@@ -1,0 +1,196 @@
+"""How well measurement rows fit an object's trajectory: the log-likelihood ratio of association.
+
+For a row ``z`` of a sensor and an object with smoothed state ``x(t)`` and covariance ``P(t)``
+(9-state constant acceleration, range ENU), the predicted measurement is ``h(x(t_row))`` and
+the innovation covariance ``S = H P Hᵀ + R``, with ``x``, ``P`` carried from the nearest
+output epoch to the row time by the constant-acceleration model (its white-jerk noise ``q``
+growing ``P`` across a gap: the bridged prediction of seed 003). The row's log-likelihood
+ratio of "this object" against "something else in view" is the robust mixture
+
+    llr = log((1 - eps) N(z - h; 0, S) / p_other + eps),
+
+``p_other`` the density of an unrelated measurement (uniform over ``EXTENT`` per component:
+100 km of range, a turn of azimuth, a quarter turn of elevation, 2 km/s of range rate, 100 km
+per Cartesian axis), ``eps = OUTLIER_PROBABILITY``. A wild row therefore costs at most
+``log eps`` instead of arbitrarily much, and a row of another object costs just that. A
+segment's score is the sum over its rows: the track-oriented score of seed 003's association
+"by position, time and heading" (the whole time series of the segment is compared, so its
+velocity and heading are compared too).
+
+Sensor biases are not yet registered when segments are associated, so a constant offset per
+component (the segment's median residual, clipped to ``BIAS_TOLERANCE``) is removed first:
+an unregistered 15 m range bias or 0.5 mrad azimuth bias must not make a sensor's segment
+look like another object.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL, measure, wrap_angle
+
+#: Probability that a row of the object is an outlier (its cost is at most log of this).
+OUTLIER_PROBABILITY = 0.01
+#: Extent per component of an unrelated measurement: spherical (range m, azimuth rad,
+#: elevation rad, range rate m/s), Cartesian (m per axis, m/s per axis).
+EXTENT_SPHERICAL = np.array([1.0e5, 2.0 * math.pi, 0.5 * math.pi, 2.0e3, 1.0, 1.0])
+EXTENT_CARTESIAN = np.array([1.0e5, 1.0e5, 1.0e5, 2.0e3, 2.0e3, 2.0e3])
+#: Largest constant offset per component removed before scoring: spherical (m, rad, rad,
+#: m/s), Cartesian (m, m/s).
+BIAS_TOLERANCE_SPHERICAL = np.array([50.0, 2e-3, 2e-3, 1.0, 0.0, 0.0])
+BIAS_TOLERANCE_CARTESIAN = np.array([10.0, 10.0, 10.0, 0.5, 0.5, 0.5])
+
+
+@dataclass(frozen=True, slots=True)
+class ObjectTrack:
+    """An object's smoothed trajectory for scoring: ``t`` (E,) s ascending, ``x`` (E, 9)
+    [p, v, a] range ENU, ``P`` (E, 9, 9) covariance, ``q`` (E,) white-jerk PSD (m^2/s^5)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    q: np.ndarray
+
+
+@njit(cache=True)
+def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
+           Po: np.ndarray) -> None:
+    """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` into xo, Po."""
+    a = abs(dt)
+    for ax in range(3):
+        p, v, acc = x[ax], x[3 + ax], x[6 + ax]
+        xo[ax] = p + v * dt + 0.5 * acc * dt * dt
+        xo[3 + ax] = v + acc * dt
+        xo[6 + ax] = acc
+    F = np.eye(9)
+    for ax in range(3):
+        F[ax, 3 + ax] = dt
+        F[ax, 6 + ax] = 0.5 * dt * dt
+        F[3 + ax, 6 + ax] = dt
+    FP = F @ P @ F.T
+    for ax in range(3):
+        i, j, k = ax, 3 + ax, 6 + ax
+        FP[i, i] += q * a ** 5 / 20.0
+        FP[i, j] += q * a ** 4 / 8.0 * np.sign(dt)
+        FP[j, i] += q * a ** 4 / 8.0 * np.sign(dt)
+        FP[i, k] += q * a ** 3 / 6.0
+        FP[k, i] += q * a ** 3 / 6.0
+        FP[j, j] += q * a ** 3 / 3.0
+        FP[j, k] += q * a ** 2 / 2.0 * np.sign(dt)
+        FP[k, j] += q * a ** 2 / 2.0 * np.sign(dt)
+        FP[k, k] += q * a
+    Po[:, :] = FP
+
+
+@njit(cache=True)
+def row_scores(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarray,
+               s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, offset: np.ndarray,
+               epoch: np.ndarray, ot: np.ndarray, ox: np.ndarray, oP: np.ndarray,
+               oq: np.ndarray, extent_sph: np.ndarray, extent_cart: np.ndarray,
+               eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-row residual (N, 6), normalised innovation squared (N,) and llr (N,).
+
+    Rows: t, model, z (N, 6), sigma (N, 6), s, sv (N, 3), Qr (N, 3, 3) as in the batch;
+    ``offset`` (N, 6) subtracted from z (a bias); ``epoch`` (N,) index of the object epoch to
+    carry from; the object: ot (E,), ox (E, 9), oP (E, 9, 9), oq (E,).
+    """
+    n = t.shape[0]
+    res = np.full((n, N_COMPONENTS), np.nan)
+    nis = np.full(n, np.nan)
+    llr = np.zeros(n)
+    x = np.empty(9)
+    P = np.empty((9, 9))
+    h = np.empty(N_COMPONENTS)
+    H = np.empty((N_COMPONENTS, 9))
+    idx = np.empty(N_COMPONENTS, dtype=np.int64)
+    for i in range(n):
+        e = epoch[i]
+        _carry(ox[e], oP[e], t[i] - ot[e], oq[e], x, P)
+        measure(model[i], x, s[i], sv[i], Qr[i], h, H)
+        m = 0
+        for c in range(N_COMPONENTS):
+            if not math.isnan(z[i, c]):
+                idx[m] = c
+                m += 1
+        if m == 0:
+            continue
+        S = np.empty((m, m))
+        nu = np.empty(m)
+        log_ext = 0.0
+        for a in range(m):
+            c = idx[a]
+            d = z[i, c] - offset[i, c] - h[c]
+            if model[i] == SPHERICAL and c == AZIMUTH:
+                d = wrap_angle(d)
+            nu[a] = d
+            res[i, c] = d
+            log_ext += math.log(extent_sph[c] if model[i] == SPHERICAL else extent_cart[c])
+            for b in range(m):
+                cb = idx[b]
+                acc = 0.0
+                for k in range(9):
+                    for l in range(9):
+                        acc += H[c, k] * P[k, l] * H[cb, l]
+                S[a, b] = acc
+            S[a, a] += sigma[i, c] * sigma[i, c]
+        if not cholesky_inplace(S, m):
+            llr[i] = math.log(eps)
+            continue
+        logdet = 0.0
+        for a in range(m):
+            logdet += 2.0 * math.log(S[a, a])
+        w = nu.copy().reshape(m, 1)
+        chol_solve_inplace(S, m, w, 1)
+        d2 = 0.0
+        for a in range(m):
+            d2 += nu[a] * w[a, 0]
+        nis[i] = d2
+        log_ratio = -0.5 * d2 - 0.5 * logdet - 0.5 * m * math.log(2.0 * math.pi) + log_ext
+        if log_ratio > 700.0:
+            llr[i] = log_ratio + math.log(1.0 - eps)
+        else:
+            llr[i] = math.log((1.0 - eps) * math.exp(log_ratio) + eps)
+    return res, nis, llr
+
+
+def epochs_of(track: ObjectTrack, t: np.ndarray) -> np.ndarray:
+    """(N,) index of the object epoch nearest to each row time (clamped to its span)."""
+    k = np.searchsorted(track.t, t)
+    k = np.clip(k, 1, track.t.size - 1) if track.t.size > 1 else np.zeros(t.size, np.int64)
+    if track.t.size > 1:
+        k = np.where(np.abs(track.t[k - 1] - t) <= np.abs(track.t[k] - t), k - 1, k)
+    return k.astype(np.int64)
+
+
+def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
+               offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(residual (M, 6), NIS (M,), llr (M,)) of ``batch`` rows ``rows`` against ``track``."""
+    sel = np.asarray(rows)
+    off = np.zeros((sel.size, N_COMPONENTS)) if offset is None else offset
+    return row_scores(batch.t[sel], batch.model[sel], batch.z[sel], batch.sigma[sel],
+                      batch.s[sel], batch.sv[sel], batch.Qr[sel], off,
+                      epochs_of(track, batch.t[sel]), track.t, track.x, track.P, track.q,
+                      EXTENT_SPHERICAL, EXTENT_CARTESIAN, OUTLIER_PROBABILITY)
+
+
+def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
+                  ) -> tuple[float, np.ndarray, np.ndarray]:
+    """A segment's score against an object: (sum of row llr after removing the clipped
+    median offset, the offset (6,), per-row llr (M,)). Module docstring."""
+    res, _, _ = score_rows(batch, rows, track)
+    spherical = batch.model[np.asarray(rows)[0]] == SPHERICAL
+    tol = BIAS_TOLERANCE_SPHERICAL if spherical else BIAS_TOLERANCE_CARTESIAN
+    med = np.zeros(N_COMPONENTS)
+    for c in range(N_COMPONENTS):
+        v = res[:, c]
+        v = v[np.isfinite(v)]
+        if v.size:
+            med[c] = np.median(v)
+    off = np.clip(med, -tol, tol)
+    _, _, llr = score_rows(batch, rows, track, np.broadcast_to(off, res.shape).copy())
+    return float(llr.sum()), off, llr

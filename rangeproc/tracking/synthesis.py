@@ -1,0 +1,419 @@
+"""Track synthesis: from every sensor's rows to the rows of each object (seed 003).
+
+1. **Segments** (``tracking.segments``, ``tracking.plots``): every radar/theodolite track is
+   cut where it jumped to another object or paused. Plots without ``track_id`` of a rotating
+   radar go through the plot tracker (clutter is left out; its plots without range cannot be
+   tracked alone and stay unassigned); those of an instrument that follows one object at a
+   time (no azimuth sweep) are segmented as one track.
+2. **Anchored objects**: each declared target carrying GPS (or MISTRAM) starts as the
+   trajectory of those rows alone: they name the object (DATA_CONTRACT: GPS and MISTRAM
+   measure one cooperative target).
+3. **Growth** (association and relay): every pending segment is scored against every object
+   whose span it overlaps or comes within ``BRIDGE_SECONDS`` of (``tracking.score``: row
+   log-likelihood ratios, the object's state carried across gaps with its process noise, a
+   constant bias tolerated). A link is a candidate when it scores positive and most of the
+   segment's rows fit (``MIN_FIT_SHARE``). The best global assignment of pending segments
+   to objects, two segments of one sensor overlapping in time never sharing an object, is the
+   hypothesis search of ``tracking.hypotheses`` (its best and runner-up scores are reported).
+   Objects that gained segments are re-estimated from all their rows, and the scoring is
+   repeated, so an object grows across sensors and gaps until no segment joins.
+4. **Discovery**: the longest pending segment that can start a track alone (one with range,
+   ``MIN_SEED_ROWS`` rows over ``MIN_SEED_SECONDS``) starts a new object, which grows as in
+   3; repeated until none is left. Declared targets without GPS or MISTRAM take the
+   discovered objects with the most rows, in declaration order; the other discovered objects
+   are named ``O1``, ``O2``, ... in order of first appearance. With a single declared target,
+   a discovered object that overlaps no other object in time is that target seen at another
+   time (a GPS on another time scale, a long outage) and joins it.
+5. What is left is unassigned, with the reason.
+
+Objects used for scoring are estimated by the centralised smoother without refinement
+passes, registration or refraction (a quick, robust trajectory); the final estimate of every
+object is the full smoother on all its rows (``pipeline``).
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from rangeproc.estimation.linalg import unpack
+from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
+from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.initialise import NoPositionFix, Prior
+from rangeproc.models.measurement import AZIMUTH, SPHERICAL
+from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
+from rangeproc.tracking.plots import is_rotating, plot_positions, scan_numbers, track_plots
+from rangeproc.tracking.score import ObjectTrack, segment_score
+from rangeproc.tracking.segments import segment_track
+
+log = logging.getLogger(__name__)
+
+#: A segment is scored against an object whose span it comes within this many seconds of.
+BRIDGE_SECONDS = 60.0
+#: Share of a segment's rows that must fit an object (positive llr) for a candidate link.
+MIN_FIT_SHARE = 0.5
+#: A segment that starts an object alone: rows and duration (s).
+MIN_SEED_ROWS = 10
+MIN_SEED_SECONDS = 5.0
+#: Growth rounds per object set (each re-estimates the objects that changed).
+MAX_ROUNDS = 8
+#: Output rate (Hz) of the quick trajectories used for scoring.
+SCORING_RATE_HZ = 10.0
+
+#: ``reason`` values of the association table.
+ASSOCIATED = "associated"
+CLUTTER = "clutter"
+NO_OBJECT = "no object fits"
+ANGLE_PLOT = "angle-only plot"
+SHORT = "segment too short to start an object"
+
+
+@dataclass(frozen=True, slots=True)
+class Segment:
+    """Rows of one sensor that follow one object: ``rows`` index that sensor's
+    :class:`SensorRows` (time order); ``track`` the file's track_id hint (-1 for plots);
+    ``t0``, ``t1`` (s); ``has_range``: it can start a track alone."""
+
+    id: int
+    sensor: int
+    rows: np.ndarray
+    track: int
+    t0: float
+    t1: float
+    has_range: bool
+
+
+@dataclass(slots=True)
+class Synthesis:
+    """The outcome: ``members`` object id -> [(sensor index, row indices)], in object order
+    (declared first, then discovered); ``segment_object`` segment id -> object id or None;
+    per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
+    SensorRows; the hypothesis searches run (``searches``); ids of discovered objects."""
+
+    members: dict[str, list[tuple[int, np.ndarray]]]
+    segments: list[Segment]
+    segment_object: dict[int, str | None]
+    row_object: dict[int, np.ndarray]
+    row_segment: dict[int, np.ndarray]
+    row_reason: dict[int, np.ndarray]
+    searches: list[SearchResult] = field(default_factory=list)
+    discovered: tuple[str, ...] = ()
+
+
+def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
+    """(M, C) the measured spherical components of rows ``sel`` (range, az, el, rate)."""
+    return rows.z[sel][:, :4]
+
+
+def sensor_segments(sensor: int, rows: SensorRows, first_id: int
+                    ) -> tuple[list[Segment], np.ndarray, np.ndarray]:
+    """Segments of one radar/theodolite, plus its clutter rows and its angle-only plot rows
+    (index arrays into ``rows``). Segment ids count from ``first_id``."""
+    out: list[Segment] = []
+    clutter = np.zeros(0, dtype=np.int64)
+    angle_plots = np.zeros(0, dtype=np.int64)
+    has_range_row = np.isfinite(rows.z[:, 0])
+
+    def add(sel: np.ndarray, track: int) -> None:
+        t = rows.t[sel]
+        out.append(Segment(first_id + len(out), sensor, sel, track, float(t[0]), float(t[-1]),
+                           bool(has_range_row[sel].mean() > 0.5)))
+
+    plots = rows.track < 0
+    if plots.any():
+        sel = np.flatnonzero(plots)
+        if not is_rotating(rows.t[sel], rows.z[sel, AZIMUTH]):
+            plots[:] = False                  # a tracking instrument without track numbers
+    for tid in np.unique(rows.track[~plots]):
+        sel = np.flatnonzero((rows.track == tid) & ~plots)
+        seg = segment_track(rows.t[sel], _spherical_components(rows, sel),
+                            angle_columns=(AZIMUTH,))
+        for k in range(int(seg.label.max()) + 1 if sel.size else 0):
+            add(sel[seg.label == k], int(tid))
+    if plots.any():
+        sel = np.flatnonzero(plots)
+        ranged = sel[has_range_row[sel]]
+        angle_plots = sel[~has_range_row[sel]]
+        if ranged.size:
+            z = rows.z[ranged]
+            p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3],
+                                  rows.s[ranged], rows.Qr[ranged])
+            label = track_plots(rows.t[ranged], p, R, scan_numbers(rows.t[ranged], z[:, 1]))
+            clutter = ranged[label < 0]
+            for k in range(int(label.max()) + 1 if label.size else 0):
+                add(ranged[label == k], -1)
+    return out, clutter, angle_plots
+
+
+def object_track(result: FusionResult) -> ObjectTrack:
+    """The output-grid epochs of a fused result as an :class:`ObjectTrack`."""
+    g = result.grid
+    n = result.xs.shape[1]
+    P = np.empty((int(g.sum()), n, n))
+    for k, packed in enumerate(result.Ps[g]):
+        unpack(packed, P[k])
+    return ObjectTrack(np.ascontiguousarray(result.epoch_t[g]),
+                       np.ascontiguousarray(result.xs[g][:, :9]),
+                       np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))
+
+
+def _subset(rows: SensorRows, sel: np.ndarray) -> SensorRows:
+    return SensorRows(**{f: getattr(rows, f)[sel] for f in SensorRows.__slots__})
+
+
+class _Objects:
+    """Objects under construction: member rows per object and their quick trajectories."""
+
+    def __init__(self, rows: Mapping[int, SensorRows], sensor_ids: tuple[str, ...],
+                 settings: EstimatorSettings, priors: Mapping[str, Prior]) -> None:
+        self.rows = rows
+        self.priors = priors
+        self.sensor_ids = sensor_ids
+        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None)
+        self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
+        self.tracks: dict[str, ObjectTrack] = {}
+
+    def batch(self, name: str) -> MeasurementBatch:
+        return merge([(i, _subset(self.rows[i], sel)) for i, sel in self.members[name]],
+                     self.sensor_ids)
+
+    def estimate(self, name: str) -> bool:
+        """(Re-)estimate an object's quick trajectory; False when it cannot be started."""
+        try:
+            result = fuse_target(self.batch(name), SCORING_RATE_HZ, self.settings,
+                                 prior=self.priors.get(name))
+        except NoPositionFix:
+            return False
+        if not result.grid.any():
+            return False
+        self.tracks[name] = object_track(result)
+        return True
+
+
+def _score_links(objects: _Objects, pending: list[Segment], names: list[str]
+                 ) -> dict[tuple[int, int], float]:
+    """Candidate links (pending index, object index) -> score (module docstring, step 3)."""
+    links: dict[tuple[int, int], float] = {}
+    for j, name in enumerate(names):
+        tr = objects.tracks.get(name)
+        if tr is None:
+            continue
+        lo, hi = tr.t[0] - BRIDGE_SECONDS, tr.t[-1] + BRIDGE_SECONDS
+        for i, seg in enumerate(pending):
+            if seg.t1 < lo or seg.t0 > hi:
+                continue
+            batch = objects.rows[seg.sensor]
+            score, _, llr = segment_score(_as_batch(batch, objects.sensor_ids, seg.sensor),
+                                          seg.rows, tr)
+            if score > 0.0 and (llr > 0.0).mean() >= MIN_FIT_SHARE:
+                links[(i, j)] = score
+    return links
+
+
+def _as_batch(rows: SensorRows, sensor_ids: tuple[str, ...], sensor: int) -> MeasurementBatch:
+    """A sensor's rows viewed as a batch (same row order; no copy of the big arrays)."""
+    n = rows.t.size
+    return MeasurementBatch(rows.t, rows.model, rows.z, rows.sigma, rows.s, rows.sv, rows.Qr,
+                            np.full(n, sensor, dtype=np.int64), rows.source_row, rows.station,
+                            rows.track, sensor_ids)
+
+
+def _conflicts(pending: list[Segment]) -> list[tuple[int, int]]:
+    """Pairs of pending segments of one sensor overlapping in time."""
+    out = []
+    for a in range(len(pending)):
+        for b in range(a + 1, len(pending)):
+            sa, sb = pending[a], pending[b]
+            if sa.sensor == sb.sensor and sa.t0 <= sb.t1 and sb.t0 <= sa.t1:
+                out.append((a, b))
+    return out
+
+
+def _member_conflict(objects: _Objects, name: str, seg: Segment,
+                     segs_of: Mapping[str, list[Segment]]) -> bool:
+    """True when the object already holds a segment of the same sensor overlapping ``seg``."""
+    return any(o.sensor == seg.sensor and o.t0 <= seg.t1 and seg.t0 <= o.t1
+               for o in segs_of.get(name, []))
+
+
+def _grow(objects: _Objects, names: list[str], pending: list[Segment],
+          segs_of: dict[str, list[Segment]], searches: list[SearchResult],
+          tick: Callable[[], None]) -> list[Segment]:
+    """Attach pending segments to the objects ``names`` until none joins (step 3)."""
+    for _ in range(MAX_ROUNDS):
+        if not pending:
+            break
+        links = _score_links(objects, pending, names)
+        links = {(i, j): w for (i, j), w in links.items()
+                 if not _member_conflict(objects, names[j], pending[i], segs_of)}
+        if not links:
+            break
+        order = sorted(range(len(pending)), key=lambda i: pending[i].t0)
+        rank = {i: k for k, i in enumerate(order)}
+        ordered = [pending[i] for i in order]
+        result = best_hypotheses(len(ordered), {(rank[i], j): w for (i, j), w in links.items()},
+                                 _conflicts(ordered))
+        searches.append(result)
+        changed: set[str] = set()
+        left = []
+        for k, seg in enumerate(ordered):
+            j = result.best.choice[k]
+            if j < 0:
+                left.append(seg)
+                continue
+            name = names[j]
+            objects.members[name].append((seg.sensor, seg.rows))
+            segs_of.setdefault(name, []).append(seg)
+            changed.add(name)
+        pending = left
+        for name in changed:
+            objects.estimate(name)
+        tick()
+        if not changed:
+            break
+    return pending
+
+
+def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
+               sensor_ids: tuple[str, ...], anchors: Mapping[str, list[int]],
+               declared: Sequence[str], settings: EstimatorSettings,
+               priors: Mapping[str, Prior] | None = None,
+               tick: Callable[[], None] = lambda: None) -> Synthesis:
+    """Associate every radar/theodolite row with an object (module docstring).
+
+    Args:
+        rows: sensor index -> its assembled rows (every non-INS sensor).
+        kinds: sensor kind per sensor index.
+        sensor_ids: the sensor ids (index order).
+        anchors: declared target id -> sensor indices of its GPS/MISTRAM.
+        declared: the declared target ids, in config order.
+        settings: the estimator settings (the quick trajectories drop the refinements).
+        priors: declared target id -> its ``initial`` state (starts MISTRAM-only anchors).
+    """
+    objects = _Objects(rows, sensor_ids, settings, priors or {})
+    segments: list[Segment] = []
+    clutter: dict[int, np.ndarray] = {}
+    angle_plots: dict[int, np.ndarray] = {}
+    for i, r in rows.items():
+        if kinds[i] not in ("radar", "theodolite") or r.t.size == 0:
+            continue
+        segs, clutter[i], angle_plots[i] = sensor_segments(i, r, len(segments))
+        segments.extend(segs)
+    tick()
+    searches: list[SearchResult] = []
+    segs_of: dict[str, list[Segment]] = {}
+    anchored = []
+    for name in declared:
+        sensors = [i for i in anchors.get(name, []) if i in rows and rows[i].t.size]
+        objects.members[name] = [(i, np.arange(rows[i].t.size)) for i in sensors]
+        if sensors and objects.estimate(name):
+            anchored.append(name)
+    pending = _grow(objects, anchored, list(segments), segs_of, searches, tick)
+    discovered: list[str] = []
+    while True:
+        seeds = [s for s in pending if s.has_range and s.rows.size >= MIN_SEED_ROWS
+                 and s.t1 - s.t0 >= MIN_SEED_SECONDS]
+        if not seeds:
+            break
+        seed = max(seeds, key=lambda s: (s.rows.size, -s.t0))
+        name = f"_new{len(discovered)}"
+        objects.members[name] = [(seed.sensor, seed.rows)]
+        pending = [s for s in pending if s.id != seed.id]
+        if not objects.estimate(name):
+            del objects.members[name]
+            continue
+        segs_of[name] = [seed]
+        discovered.append(name)
+        pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, tick)
+    discovered = _relay_lone_objects(objects, declared, anchored, discovered, segs_of)
+    names = _name_objects(objects, declared, anchored, discovered)
+    members = {names[k]: objects.members[k] for k in [*declared, *discovered]
+               if k in names and objects.members.get(k)}
+    segment_object: dict[int, str | None] = {s.id: None for s in segments}
+    for key, segs in segs_of.items():
+        for s in segs:
+            segment_object[s.id] = names.get(key)
+    return Synthesis(members, segments, segment_object,
+                     *_row_tables(rows, kinds, segments, segment_object, clutter, angle_plots),
+                     searches=searches,
+                     discovered=tuple(names[k] for k in discovered if k in names))
+
+
+def _span(objects: _Objects, key: str) -> tuple[float, float]:
+    """Time span (s) of an object's estimated trajectory."""
+    t = objects.tracks[key].t
+    return float(t[0]), float(t[-1])
+
+
+def _relay_lone_objects(objects: _Objects, declared: Sequence[str], anchored: list[str],
+                        discovered: list[str], segs_of: dict[str, list[Segment]]
+                        ) -> list[str]:
+    """With one declared target, anchored: a discovered object that overlaps no other object
+    in time (within ``BRIDGE_SECONDS``) is that target seen at another time (one object in the
+    air at a time, e.g. a GPS on another time scale or a long outage); it joins the target.
+    Returns the discovered objects left."""
+    if len(declared) != 1 or declared[0] not in anchored:
+        return discovered
+    target = declared[0]
+    spans = {k: _span(objects, k) for k in [target, *discovered]}
+    left = []
+    for k in discovered:
+        a0, a1 = spans[k]
+        alone = all(b1 + BRIDGE_SECONDS < a0 or a1 + BRIDGE_SECONDS < b0
+                    for j, (b0, b1) in spans.items() if j != k)
+        if not alone:
+            left.append(k)
+            continue
+        objects.members[target].extend(objects.members.pop(k))
+        segs_of.setdefault(target, []).extend(segs_of.pop(k, []))
+    return left
+
+
+def _name_objects(objects: _Objects, declared: Sequence[str], anchored: list[str],
+                  discovered: list[str]) -> dict[str, str]:
+    """Internal key -> output id: declared targets without anchors take the biggest
+    discovered objects in declaration order; the rest are O1, O2, ... by first appearance."""
+    size = {k: sum(sel.size for _, sel in objects.members[k]) for k in discovered}
+    first = {k: min(float(objects.rows[i].t[sel].min()) for i, sel in objects.members[k])
+             for k in discovered}
+    names = {k: k for k in anchored}
+    free = sorted(discovered, key=lambda k: -size[k])
+    for name in declared:
+        if name in anchored or not free:
+            continue
+        names[free.pop(0)] = name
+    for n, k in enumerate(sorted(free, key=lambda k: first[k]), start=1):
+        names[k] = f"O{n}"
+    return names
+
+
+def _row_tables(rows: Mapping[int, SensorRows], kinds: Sequence[str], segments: list[Segment],
+                segment_object: Mapping[int, str | None], clutter: Mapping[int, np.ndarray],
+                angle_plots: Mapping[int, np.ndarray]
+                ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """Per radar/theodolite sensor: (N,) object id (""), segment id (-1) and reason."""
+    obj: dict[int, np.ndarray] = {}
+    seg: dict[int, np.ndarray] = {}
+    why: dict[int, np.ndarray] = {}
+    for i, r in rows.items():
+        if kinds[i] not in ("radar", "theodolite"):
+            continue
+        n = r.t.size
+        obj[i] = np.full(n, "", dtype=object)
+        seg[i] = np.full(n, -1, dtype=np.int64)
+        why[i] = np.full(n, NO_OBJECT, dtype=object)
+        if i in clutter:
+            why[i][clutter[i]] = CLUTTER
+        if i in angle_plots:
+            why[i][angle_plots[i]] = ANGLE_PLOT
+    for s in segments:
+        name = segment_object[s.id]
+        seg[s.sensor][s.rows] = s.id
+        if name is not None:
+            obj[s.sensor][s.rows] = name
+            why[s.sensor][s.rows] = ASSOCIATED
+        elif not s.has_range or s.rows.size < MIN_SEED_ROWS:
+            why[s.sensor][s.rows] = SHORT if s.has_range else NO_OBJECT
+    return obj, seg, why
