@@ -40,6 +40,10 @@ RESET_SECONDS = 0.3
 GATE_PROBABILITY = 1.0 - 1e-6
 #: Grid of the tracking index q dt^3 / sigma^2 searched per component.
 TRACKING_INDEX_GRID = 10.0 ** np.arange(-9.0, 3.0, 1.0)
+#: Rows used to choose the process noise of a long track: blocks of ``Q_BLOCK`` rows spread
+#: over it, ``Q_ROWS`` in all (block joins are time gaps, which restart the filter).
+Q_ROWS = 20_000
+Q_BLOCK = 1_000
 #: Initial velocity / acceleration uncertainty, in noise sigmas per median step (diffuse).
 DIFFUSE = 1e4
 
@@ -217,6 +221,10 @@ def choose_process_noise(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, step: 
                          gap_seconds: float) -> np.ndarray:
     """(C,) white-jerk PSD per component: the maximum-likelihood tracking index of each
     component filtered alone (module docstring)."""
+    if t.size > Q_ROWS:                       # blocks spread over the track suffice
+        starts = np.linspace(0, t.size - Q_BLOCK, Q_ROWS // Q_BLOCK).astype(np.int64)
+        keep = np.concatenate([np.arange(a, a + Q_BLOCK) for a in np.unique(starts)])
+        t, z = t[keep], z[keep]
     q = np.empty(z.shape[1])
     gate = _chi2_gates(1)
     for k in range(z.shape[1]):

@@ -61,6 +61,10 @@ MIN_SEED_SECONDS = 5.0
 MAX_ROUNDS = 8
 #: Output rate (Hz) of the quick trajectories used for scoring.
 SCORING_RATE_HZ = 10.0
+#: Rows per sensor of an object's quick trajectory, and rows of a segment scored: at most
+#: these many, evenly spread (association needs the shape of a track, not every row).
+QUICK_ROWS_PER_SENSOR = 20_000
+SCORED_ROWS = 3_000
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -159,6 +163,13 @@ def object_track(result: FusionResult) -> ObjectTrack:
                        np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))
 
 
+def spread(sel: np.ndarray, most: int) -> np.ndarray:
+    """At most ``most`` entries of ``sel``, evenly spread, first and last included."""
+    if sel.size <= most:
+        return sel
+    return sel[np.unique(np.linspace(0, sel.size - 1, most).astype(np.int64))]
+
+
 def _subset(rows: SensorRows, sel: np.ndarray) -> SensorRows:
     return SensorRows(**{f: getattr(rows, f)[sel] for f in SensorRows.__slots__})
 
@@ -176,8 +187,13 @@ class _Objects:
         self.tracks: dict[str, ObjectTrack] = {}
 
     def batch(self, name: str) -> MeasurementBatch:
-        return merge([(i, _subset(self.rows[i], sel)) for i, sel in self.members[name]],
-                     self.sensor_ids)
+        """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
+        parts: dict[int, list[np.ndarray]] = {}
+        for i, sel in self.members[name]:
+            parts.setdefault(i, []).append(sel)
+        return merge([(i, _subset(self.rows[i], spread(np.sort(np.concatenate(sels)),
+                                                       QUICK_ROWS_PER_SENSOR)))
+                      for i, sels in parts.items()], self.sensor_ids)
 
     def estimate(self, name: str) -> bool:
         """(Re-)estimate an object's quick trajectory; False when it cannot be started."""
@@ -205,10 +221,11 @@ def _score_links(objects: _Objects, pending: list[Segment], names: list[str]
             if seg.t1 < lo or seg.t0 > hi:
                 continue
             batch = objects.rows[seg.sensor]
+            scored = spread(seg.rows, SCORED_ROWS)
             score, _, llr = segment_score(_as_batch(batch, objects.sensor_ids, seg.sensor),
-                                          seg.rows, tr)
+                                          scored, tr)
             if score > 0.0 and (llr > 0.0).mean() >= MIN_FIT_SHARE:
-                links[(i, j)] = score
+                links[(i, j)] = score * seg.rows.size / scored.size
     return links
 
 
@@ -268,6 +285,8 @@ def _grow(objects: _Objects, names: list[str], pending: list[Segment],
             segs_of.setdefault(name, []).append(seg)
             changed.add(name)
         pending = left
+        if not pending:
+            break
         for name in changed:
             objects.estimate(name)
         tick()

@@ -1,0 +1,46 @@
+"""Track synthesis end to end: one object stays one object; a lock jump becomes a new object."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+
+from rangeproc.evaluate import evaluate_run
+
+CONFIG = "scenario.toml"
+
+
+def test_the_sample_is_one_object_with_every_row(sample_run) -> None:
+    table = pd.read_parquet(sample_run.out_dir / "association.parquet")
+    assert list(table.columns) == ["sensor", "row", "time", "target_id", "segment", "reason"]
+    n_rows = {sid: len(pd.read_csv(sample_run.folder / f"{sid}.csv")) for sid in ("R1", "S1")}
+    n_rows["TH1"] = len(pd.read_parquet(sample_run.folder / "TH1.parquet"))
+    for sid, n in n_rows.items():
+        mine = table[table.sensor == sid]
+        assert mine.row.tolist() == list(range(n))              # one row per input row
+        kept = mine[~mine.reason.str.startswith("removed")]
+        assert (kept.target_id == "T1").all() and (kept.reason == "associated").all()
+    summary = json.loads((sample_run.out_dir / "summary.json").read_text())
+    assert set(summary["association"]["objects"]) == {"T1"}
+    assert summary["association"]["exact"]
+    fused = pd.read_parquet(sample_run.out_dir / "fused.parquet")
+    assert set(fused.target_id) == {"T1"}
+
+
+def test_a_lock_jump_to_another_object_becomes_a_second_object(scenario, cli, explain) -> None:
+    r1 = pd.read_csv(scenario / "R1.csv")
+    order = np.argsort(r1.time.to_numpy(), kind="stable")
+    later = order[len(order) // 2:]                  # the second half of the flight, in time
+    r1.loc[later, "range"] += 5000.0                 # the lock is on something 5 km further
+    r1.loc[later, "azimuth"] += 3.0
+    r1.loc[later, "range_rate"] += 30.0
+    r1.to_csv(scenario / "R1.csv", index=False, float_format="%.17g")
+    res = cli(["run", "--quiet", scenario / CONFIG])
+    assert res.exit_code == 0, explain(res)
+    table = pd.read_parquet(scenario / "out" / "association.parquet")
+    r1_rows = table[table.sensor == "R1"].set_index("row")
+    assert (r1_rows.loc[np.sort(later), "target_id"] == "O1").mean() > 0.99
+    assert (r1_rows.drop(index=later).target_id == "T1").mean() > 0.99
+    metrics = evaluate_run(scenario / "out", scenario / "truth.csv")["targets"]["T1"]
+    assert metrics["pos_rmse"] < 0.15 and min(metrics["inside_3sigma_enu"]) > 0.95
