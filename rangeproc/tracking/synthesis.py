@@ -57,6 +57,10 @@ MIN_FIT_SHARE = 0.5
 #: A segment that starts an object alone: rows and duration (s).
 MIN_SEED_ROWS = 10
 MIN_SEED_SECONDS = 5.0
+#: A segment is split in two when that gains more than this score (nats), each part holding
+#: at least ``MIN_SPLIT_ROWS`` scored rows (a lock that jumped without a visible step).
+SPLIT_GAIN = 50.0
+MIN_SPLIT_ROWS = 10
 #: Growth rounds per object set (each re-estimates the objects that changed).
 MAX_ROUNDS = 8
 #: Output rate (Hz) of the quick trajectories used for scoring.
@@ -208,25 +212,86 @@ class _Objects:
         return True
 
 
-def _score_links(objects: _Objects, pending: list[Segment], names: list[str]
-                 ) -> dict[tuple[int, int], float]:
-    """Candidate links (pending index, object index) -> score (module docstring, step 3)."""
-    links: dict[tuple[int, int], float] = {}
+def _scored_llr(objects: _Objects, seg: Segment, names: list[str], rows: np.ndarray
+                ) -> dict[int, np.ndarray]:
+    """Object index -> per-row llr (M,) of the segment's rows ``rows`` against each object
+    whose span it comes within ``BRIDGE_SECONDS`` of."""
+    out: dict[int, np.ndarray] = {}
+    batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
     for j, name in enumerate(names):
         tr = objects.tracks.get(name)
-        if tr is None:
+        if tr is None or seg.t1 < tr.t[0] - BRIDGE_SECONDS or seg.t0 > tr.t[-1] + BRIDGE_SECONDS:
             continue
-        lo, hi = tr.t[0] - BRIDGE_SECONDS, tr.t[-1] + BRIDGE_SECONDS
-        for i, seg in enumerate(pending):
-            if seg.t1 < lo or seg.t0 > hi:
-                continue
-            batch = objects.rows[seg.sensor]
-            scored = spread(seg.rows, SCORED_ROWS)
-            score, _, llr = segment_score(_as_batch(batch, objects.sensor_ids, seg.sensor),
-                                          scored, tr)
-            if score > 0.0 and (llr > 0.0).mean() >= MIN_FIT_SHARE:
-                links[(i, j)] = score * seg.rows.size / scored.size
-    return links
+        out[j] = segment_score(batch, rows, tr)[2]
+    return out
+
+
+def best_split(llr: Mapping[int, np.ndarray], min_part: int) -> tuple[int, float]:
+    """The split of a segment whose rows fit one object and then another (or none): the row
+    index k (rows[:k] | rows[k:]) and the score gained over keeping it whole; (0, 0) when no
+    split gains. ``llr``: object -> per-row llr (M,)."""
+    if not llr:
+        return 0, 0.0
+    keys = list(llr)
+    L = np.vstack([llr[j] for j in keys])                  # (J, M)
+    m = L.shape[1]
+    if m < 2 * min_part:
+        return 0, 0.0
+    head = np.concatenate([np.zeros((len(keys), 1)), np.cumsum(L, axis=1)], axis=1)
+    tail = head[:, -1:] - head                             # (J, M + 1): sum of rows[k:]
+    whole = max(0.0, float(head[:, -1].max()))
+    ks = np.arange(min_part, m - min_part + 1)
+    best_k, best = 0, whole
+    for a in range(len(keys)):
+        others = np.delete(np.arange(len(keys)), a)
+        other_tail = np.maximum(tail[others][:, ks].max(axis=0), 0.0) if others.size \
+            else np.zeros(ks.size)
+        other_head = np.maximum(head[others][:, ks].max(axis=0), 0.0) if others.size \
+            else np.zeros(ks.size)
+        for value in (head[a, ks] + other_tail, tail[a, ks] + other_head):
+            i = int(np.argmax(value))
+            if value[i] > best:
+                best, best_k = float(value[i]), int(ks[i])
+    return best_k, best - whole
+
+
+def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRows
+           ) -> tuple[Segment, Segment]:
+    """Two segments from ``seg``: its rows [:k_rows] and [k_rows:]."""
+    parts = []
+    for sel in (seg.rows[:k_rows], seg.rows[k_rows:]):
+        t = rows.t[sel]
+        parts.append(Segment(new_id(), seg.sensor, sel, seg.track, float(t[0]), float(t[-1]),
+                             bool(np.isfinite(rows.z[sel, 0]).mean() > 0.5)))
+    return parts[0], parts[1]
+
+
+def _score_links(objects: _Objects, pending: list[Segment], names: list[str],
+                 new_id: Callable[[], int], replaced: dict[int, tuple[int, int]]
+                 ) -> tuple[list[Segment], dict[tuple[int, int], float]]:
+    """Candidate links (pending index, object index) -> score (module docstring, step 3),
+    after splitting the segments whose rows fit one object and then another
+    (``SPLIT_GAIN``): the pending list may change."""
+    out: list[Segment] = []
+    links: dict[tuple[int, int], float] = {}
+    queue = list(pending)
+    while queue:
+        seg = queue.pop(0)
+        scored = spread(seg.rows, SCORED_ROWS)
+        llr = _scored_llr(objects, seg, names, scored)
+        k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
+        if gain > SPLIT_GAIN:
+            k_rows = int(np.searchsorted(seg.rows, scored[k]))
+            a, b = _split(seg, k_rows, new_id, objects.rows[seg.sensor])
+            replaced[seg.id] = (a.id, b.id)
+            queue[:0] = [a, b]
+            continue
+        i = len(out)
+        out.append(seg)
+        for j, v in llr.items():
+            if v.sum() > 0.0 and (v > 0.0).mean() >= MIN_FIT_SHARE:
+                links[(i, j)] = float(v.sum()) * seg.rows.size / scored.size
+    return out, links
 
 
 def _as_batch(rows: SensorRows, sensor_ids: tuple[str, ...], sensor: int) -> MeasurementBatch:
@@ -257,12 +322,13 @@ def _member_conflict(objects: _Objects, name: str, seg: Segment,
 
 def _grow(objects: _Objects, names: list[str], pending: list[Segment],
           segs_of: dict[str, list[Segment]], searches: list[SearchResult],
+          new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
           tick: Callable[[], None]) -> list[Segment]:
     """Attach pending segments to the objects ``names`` until none joins (step 3)."""
     for _ in range(MAX_ROUNDS):
         if not pending:
             break
-        links = _score_links(objects, pending, names)
+        pending, links = _score_links(objects, pending, names, new_id, replaced)
         links = {(i, j): w for (i, j), w in links.items()
                  if not _member_conflict(objects, names[j], pending[i], segs_of)}
         if not links:
@@ -329,8 +395,17 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         objects.members[name] = [(i, np.arange(rows[i].t.size)) for i in sensors]
         if sensors and objects.estimate(name):
             anchored.append(name)
-    pending = _grow(objects, anchored, list(segments), segs_of, searches, tick)
+    replaced: dict[int, tuple[int, int]] = {}
+
+    def new_id() -> int:
+        new_id.n += 1                                    # type: ignore[attr-defined]
+        return new_id.n - 1                              # type: ignore[attr-defined]
+
+    new_id.n = len(segments)                             # type: ignore[attr-defined]
+    pending = _grow(objects, anchored, list(segments), segs_of, searches, new_id, replaced,
+                    tick)
     discovered: list[str] = []
+    unstartable: list[Segment] = []
     while True:
         seeds = [s for s in pending if s.has_range and s.rows.size >= MIN_SEED_ROWS
                  and s.t1 - s.t0 >= MIN_SEED_SECONDS]
@@ -342,20 +417,24 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         pending = [s for s in pending if s.id != seed.id]
         if not objects.estimate(name):
             del objects.members[name]
+            unstartable.append(seed)
             continue
         segs_of[name] = [seed]
         discovered.append(name)
-        pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, tick)
+        pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
+                        replaced, tick)
     discovered = _relay_lone_objects(objects, declared, anchored, discovered, segs_of)
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
                if k in names and objects.members.get(k)}
-    segment_object: dict[int, str | None] = {s.id: None for s in segments}
+    final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
+                   key=lambda s: s.id)
+    segment_object: dict[int, str | None] = {s.id: None for s in final}
     for key, segs in segs_of.items():
         for s in segs:
             segment_object[s.id] = names.get(key)
-    return Synthesis(members, segments, segment_object,
-                     *_row_tables(rows, kinds, segments, segment_object, clutter, angle_plots),
+    return Synthesis(members, final, segment_object,
+                     *_row_tables(rows, kinds, final, segment_object, clutter, angle_plots),
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names))
 
