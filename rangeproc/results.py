@@ -18,7 +18,9 @@ class TrackEstimate:
     measurement within the output interval around each epoch; lat, lon (deg), height (m):
     (K,) geodetic position; spans: ((t_first, t_last), ...) s, the separately estimated spans
     (the target was unobserved for longer than the gap limit between them: no epochs there);
-    model_prob: the IMM's smoothed probability (K,) of each model by name (empty otherwise).
+    model_prob: the IMM's smoothed probability (K,) of each model by name (empty otherwise);
+    sensors: (K,) str, the ids of those sensors, comma-separated (provenance); data_gap: (K,)
+    s from the epoch to the nearest used measurement of any sensor (large inside a bridged gap).
     """
 
     target_id: str
@@ -31,6 +33,8 @@ class TrackEstimate:
     height: np.ndarray
     spans: tuple[tuple[float, float], ...] = ()
     model_prob: dict[str, np.ndarray] = field(default_factory=dict)
+    sensors: np.ndarray | None = None
+    data_gap: np.ndarray | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -31,6 +31,32 @@ def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
     return count
 
 
+def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
+                     sensor_used: np.ndarray, sensor_ids: tuple[str, ...]
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per output epoch: the comma-separated ids of the sensors with a used row within the
+    output interval around it (K,) and the time (s) to the nearest used row of any sensor (K,)."""
+    half = 0.5 / rate_hz
+    k = grid_t.size
+    names = np.full(k, "", dtype=object)
+    if k == 0:
+        return names, np.zeros(0)
+    edges = np.append(grid_t - half, grid_t[-1] + half)
+    for sensor in np.unique(sensor_used):
+        hist, _ = np.histogram(t_used[sensor_used == sensor], bins=edges)
+        have = hist > 0
+        sid = sensor_ids[int(sensor)]
+        names[have] = [f"{n},{sid}" if n else sid for n in names[have]]
+    ts = np.sort(t_used)
+    if ts.size == 0:
+        return names, np.full(k, np.inf)
+    j = np.clip(np.searchsorted(ts, grid_t), 1, ts.size - 1) if ts.size > 1 else np.zeros(k, int)
+    gap = np.abs(ts[j] - grid_t)
+    if ts.size > 1:
+        gap = np.minimum(gap, np.abs(ts[j - 1] - grid_t))
+    return names, gap
+
+
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
                    rate_hz: float) -> TrackEstimate:
     """The smoothed state on the output grid, with geodetic position and n_sensors."""
@@ -41,11 +67,13 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
+    names, gap = epoch_provenance(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc],
+                                  result.batch.sensor_ids)
     prob = {} if result.model_prob is None else {
         name: result.model_prob[result.grid][:, j] for j, name in enumerate(result.model_names)}
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
-                         spans=result.spans, model_prob=prob)
+                         spans=result.spans, model_prob=prob, sensors=names, data_gap=gap)
 
 
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,

@@ -84,3 +84,33 @@ def test_a_lock_that_slides_onto_a_diverging_object_is_split(scenario, cli, expl
     assert (early.target_id == "T1").mean() > 0.95
     metrics = evaluate_run(scenario / "out", scenario / "truth.csv")["targets"]["T1"]
     assert metrics["pos_rmse"] < 0.15
+
+
+def test_fused_epochs_carry_their_provenance(sample_run) -> None:
+    fused = pd.read_parquet(sample_run.out_dir / "fused.parquet")
+    named = fused.sensors.str.split(",").map(len).where(fused.sensors != "", 0)
+    assert (named == fused.n_sensors).all()
+    assert set(",".join(fused.sensors).split(",")) >= {"R1", "TH1", "S1", "G1", "MISTRAM"}
+    assert (fused.data_gap_s >= 0).all() and (fused.bridged == (fused.data_gap_s > 1.0)).all()
+    assert fused.data_gap_s.max() < 1.0                  # the sample has no uncovered gap
+
+
+def test_a_gap_without_data_is_bridged_with_growing_uncertainty(scenario, cli, explain) -> None:
+    t0 = pd.read_csv(scenario / "G1.csv").time.min()
+    lo, hi = t0 + 50.0, t0 + 56.0
+    for name in ("R1", "S1", "G1", "MISTRAM"):
+        df = pd.read_csv(scenario / f"{name}.csv")
+        df[(df.time < lo) | (df.time > hi)].to_csv(scenario / f"{name}.csv", index=False,
+                                                    float_format="%.17g")
+    th = pd.read_parquet(scenario / "TH1.parquet")
+    th[(th.time < lo) | (th.time > hi)].to_parquet(scenario / "TH1.parquet")
+    res = cli(["run", "--quiet", scenario / CONFIG])
+    assert res.exit_code == 0, explain(res)
+    fused = pd.read_parquet(scenario / "out" / "fused.parquet")
+    inside = fused[(fused.time > lo + 1.5) & (fused.time < hi - 1.5)]
+    outside = fused[(fused.time < lo - 2.0) | (fused.time > hi + 2.0)]
+    assert len(inside) > 20 and inside.bridged.all() and not outside.bridged.any()
+    assert (inside.sensors == "").all()
+    assert inside.sigma_e.max() > 3 * outside.sigma_e.median()
+    metrics = evaluate_run(scenario / "out", scenario / "truth.csv")["targets"]["T1"]
+    assert min(metrics["inside_3sigma_enu"]) > 0.97
