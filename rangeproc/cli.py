@@ -212,17 +212,25 @@ def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_s
 @main.command("evaluate")
 @click.argument("out_dir", type=click.Path(path_type=Path))
 @click.argument("truth", type=click.Path(path_type=Path))
+@click.option("--cutoff", type=click.FloatRange(min=0.0, min_open=True), default=50.0,
+              show_default=True,
+              help="Multi-object assignment and GOSPA cutoff distance (m).")
 @library_errors
-def evaluate_cmd(out_dir: Path, truth: Path) -> None:
+def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
     """Compare OUT_DIR/fused.parquet with a TRUTH trajectory (CSV or Parquet).
 
     Prints position/velocity RMSE, 95th percentiles, the fraction of epochs inside 3 sigma and
     the normalised estimation error squared per target; saves OUT_DIR/evaluation.json.
+    With several objects (fused ids need not match truth ids), also assigns fused objects to
+    truth objects by position at every epoch (within --cutoff) and prints per truth object the
+    best-matching fused object, its RMSE, coverage, identity swaps and fragmentation, and the
+    GOSPA metric over time (per-epoch values in OUT_DIR/evaluation_gospa.parquet).
     """
     from rangeproc.evaluate import evaluate_run, format_report
     from rangeproc.io.writers import write_json
 
-    metrics = evaluate_run(out_dir, truth)
+    metrics = evaluate_run(out_dir, truth, cutoff=cutoff,
+                           series_path=Path(out_dir) / "evaluation_gospa.parquet")
     write_json(metrics, Path(out_dir) / "evaluation.json")
     click.echo(format_report(metrics))
 

@@ -7,6 +7,11 @@ truth span, and returns per-target errors (range ENU frame, m and m/s) and posit
 NEES uses the full 3x3 position covariance when the fused file has ``cov_en, cov_eu, cov_nu``,
 else the diagonal ``sigma_e/n/u``. Successive epochs are correlated, so the chi-square bounds
 of the mean NEES are reported for reference, not as a test.
+
+With several objects (more than one target id in truth or fused output, or a fused id that truth
+lacks, e.g. a discovered object "O1"), the result also has a "multi" entry: fused objects are
+assigned to truth objects by position at every epoch, with GOSPA over time and identity metrics
+(see :mod:`rangeproc.evaluate.multi`).
 """
 from __future__ import annotations
 
@@ -19,6 +24,8 @@ import pandas as pd
 from scipy.stats import chi2
 
 from rangeproc.errors import DataError, NumericalError
+from rangeproc.evaluate.multi import format_multi, gospa_series, multi_object_metrics, summarise
+from rangeproc.io.writers import write_parquet
 
 FUSED_COLUMNS = ("target_id", "time", "e", "n", "u", "ve", "vn", "vu",
                  "sigma_e", "sigma_n", "sigma_u")
@@ -36,6 +43,17 @@ def _read(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise DataError(f"{path}: missing column '{missing[0]}' (need {', '.join(required)})")
+    if df.empty:
+        raise DataError(f"{path}: no data rows (need columns {', '.join(required)})")
+    for c in required:
+        if c == "target_id" or pd.api.types.is_numeric_dtype(df[c]):
+            continue
+        num = pd.to_numeric(df[c], errors="coerce")
+        bad = np.flatnonzero(num.isna().to_numpy() & df[c].notna().to_numpy())
+        if bad.size:
+            raise DataError(f"{path}: column '{c}' row {bad[0]}: not a number "
+                            f"({df[c].iloc[bad[0]]!r})")
+        df[c] = num.astype(float)
     return df
 
 
@@ -99,12 +117,17 @@ def _f(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def evaluate_run(out_dir: Path, truth_path: Path) -> dict[str, Any]:
+def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
+                 series_path: Path | None = None) -> dict[str, Any]:
     """Compare ``out_dir/fused.parquet`` with truth; JSON-serialisable result.
 
     Returns {"fused": path, "truth": path, "targets": {target_id: metrics}, "unmatched":
     [target ids of fused that truth lacks]}; metrics as :func:`error_metrics` (n_epochs counts
-    the fused epochs inside the truth span with finite state and sigmas).
+    the fused epochs inside the truth span with finite state and sigmas). For several objects
+    also "multi": :func:`rangeproc.evaluate.multi.summarise` with assignment cutoff ``cutoff``
+    (m); then, if ``series_path`` is given, the per-epoch GOSPA table
+    (:func:`rangeproc.evaluate.multi.gospa_series`) is written there as Parquet and
+    "multi"["gospa"]["series_file"] names it.
     """
     fused_path, truth_path = Path(out_dir) / "fused.parquet", Path(truth_path)
     fused = _read(fused_path, FUSED_COLUMNS)
@@ -127,7 +150,24 @@ def evaluate_run(out_dir: Path, truth_path: Path) -> dict[str, Any]:
         err = est[ok] - ref[ok]
         result["targets"][tid] = error_metrics(err[:, :3], err[:, 3:], cov[ok],
                                                f"{fused_path}: target {tid}")
+    fused_ids = fused["target_id"].astype(str)
+    if truth_ids.nunique() > 1 or fused_ids.nunique() > 1 or result["unmatched"]:
+        ev = multi_object_metrics(
+            fused["time"].to_numpy(float), _str_array(fused_ids),
+            fused[["e", "n", "u"]].to_numpy(float), truth["time"].to_numpy(float),
+            _str_array(truth_ids), truth[["e", "n", "u"]].to_numpy(float), cutoff=cutoff,
+            where=str(fused_path))
+        result["multi"] = summarise(ev)
+        if series_path is not None:
+            write_parquet(pd.DataFrame(gospa_series(ev)), series_path)
+            result["multi"]["gospa"]["series_file"] = str(series_path)
     return result
+
+
+def _str_array(ids: pd.Series) -> np.ndarray:
+    """Target ids as a NumPy unicode array (fast to sort, unlike an object array)."""
+    codes, names = pd.factorize(ids, use_na_sentinel=False)
+    return np.asarray(names, dtype=str)[codes]
 
 
 def format_report(metrics: dict[str, Any]) -> str:
@@ -153,6 +193,8 @@ def format_report(metrics: dict[str, Any]) -> str:
         lines.append("unmatched (no truth): " + ", ".join(metrics["unmatched"]))
     lines.append("NEES: mean position NEES (3 dof, consistent ~3); bounds assume independent "
                  "epochs (successive epochs are correlated).")
+    if "multi" in metrics:
+        lines += ["", format_multi(metrics["multi"])]
     return "\n".join(lines)
 
 
