@@ -4,8 +4,9 @@ Rows without ``track_id`` are plots of anything in view, clutter included (DATA_
 section 2). They are tracked per sensor in the range ENU frame:
 
 * **Scans.** A rotating radar reports in azimuth order, so a scan ends where the azimuth
-  wraps (falls by more than half a turn). An object gives at most one plot per scan. Plots of
-  a sensor that does not sweep (:func:`is_rotating`) are not tracked here: such an instrument
+  wraps (falls by more than half a turn); a sensor that stamps a whole scan with one time
+  (:func:`is_framed`) has one scan per time stamp. An object gives at most one plot per scan.
+  Plots of a sensor that does neither (:func:`is_rotating`) are not tracked here: such an instrument
   follows one object at a time, and its plots are segmented like a track
   (``tracking.segments``).
 * **Prediction**: a constant-velocity model with white-acceleration noise of PSD
@@ -46,6 +47,8 @@ CONFIRM_HITS = 3
 CONFIRM_SCANS = 4
 #: Scans in a row without a plot that end a confirmed track.
 MAX_MISSES = 5
+#: Plots come in frames when at least this share of them share a time stamp with another.
+FRAMED_SHARE = 0.5
 #: A rotating radar: at least this many turns, at most this many seconds per turn.
 MIN_TURNS = 2.0
 MAX_TURN_SECONDS = 30.0
@@ -67,11 +70,26 @@ def is_rotating(t: np.ndarray, azimuth: np.ndarray) -> bool:
                 and span > 0 and span / advance <= MAX_TURN_SECONDS)
 
 
+def is_framed(t: np.ndarray) -> bool:
+    """True when the plots come in frames: most share their time stamp with another plot (a
+    radar or lidar that stamps a whole scan with one time)."""
+    if t.size < 3:
+        return False
+    same = np.diff(t) == 0.0
+    shared = np.zeros(t.size, dtype=bool)
+    shared[1:] |= same
+    shared[:-1] |= same
+    return bool(shared.mean() >= FRAMED_SHARE)
+
+
 def scan_numbers(t: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
-    """(N,) int64 scan number of each plot of a rotating radar (time ordered): a new scan
-    where the azimuth wraps (falls by more than half a turn)."""
+    """(N,) int64 scan number of each plot (time ordered): for plots in frames
+    (:func:`is_framed`) each time stamp is a scan; otherwise (a rotating radar) a new scan
+    starts where the azimuth wraps (falls by more than half a turn)."""
     if t.size == 0:
         return np.zeros(0, dtype=np.int64)
+    if is_framed(t):
+        return np.cumsum(np.concatenate([[False], np.diff(t) > 0.0])).astype(np.int64)
     da = np.diff(np.mod(azimuth, 2 * np.pi))
     return np.cumsum(np.concatenate([[False], da < -np.pi])).astype(np.int64)
 

@@ -44,7 +44,13 @@ from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_t
 from rangeproc.fusion.initialise import NoPositionFix, Prior
 from rangeproc.models.measurement import AZIMUTH, SPHERICAL
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
-from rangeproc.tracking.plots import is_rotating, plot_positions, scan_numbers, track_plots
+from rangeproc.tracking.plots import (
+    is_framed,
+    is_rotating,
+    plot_positions,
+    scan_numbers,
+    track_plots,
+)
 from rangeproc.tracking.score import ObjectTrack, segment_score
 from rangeproc.tracking.segments import segment_track
 
@@ -132,7 +138,7 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
     plots = rows.track < 0
     if plots.any():
         sel = np.flatnonzero(plots)
-        if not is_rotating(rows.t[sel], rows.z[sel, AZIMUTH]):
+        if not (is_framed(rows.t[sel]) or is_rotating(rows.t[sel], rows.z[sel, AZIMUTH])):
             plots[:] = False                  # a tracking instrument without track numbers
     for tid in np.unique(rows.track[~plots]):
         sel = np.flatnonzero((rows.track == tid) & ~plots)

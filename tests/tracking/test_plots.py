@@ -3,7 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.tracking.plots import is_rotating, plot_positions, scan_numbers, track_plots
+from rangeproc.tracking.plots import (
+    is_framed,
+    is_rotating,
+    plot_positions,
+    scan_numbers,
+    track_plots,
+)
 
 SIG = np.array([30.0, 2e-3, 2e-3])
 
@@ -83,3 +89,21 @@ def test_an_instrument_following_one_object_is_not_a_rotating_radar() -> None:
     t = np.arange(2400) * 0.05
     az = np.mod(6.0 + 0.02 * t, 2 * np.pi)          # crosses north, slowly
     assert not is_rotating(t, az)
+
+
+def test_plots_stamped_per_scan_are_framed_by_time_stamp() -> None:
+    t, r, az, el, truth = surveillance(seed=3)
+    scan = np.floor(t / 4.0)
+    t_framed = scan * 4.0                            # every plot of a scan gets one stamp
+    order = np.argsort(t_framed, kind="stable")
+    assert is_framed(t_framed[order]) and not is_framed(t)
+    assert np.array_equal(scan_numbers(t_framed[order], az[order]),
+                          scan[order].astype(np.int64) - int(scan.min()))
+    n = t.size
+    p, R = plot_positions(r[order], az[order], el[order], np.tile(SIG, (n, 1)),
+                          np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)))
+    label = track_plots(t_framed[order], p, R, scan_numbers(t_framed[order], az[order]))
+    tr = truth[order]
+    for j in range(2):
+        mine = label[tr == j]
+        assert (mine == np.bincount(mine[mine >= 0]).argmax()).mean() >= 0.85, j
