@@ -190,21 +190,41 @@ def run_cmd(config: Path, quiet: bool) -> None:
                    "mount_yaw +0.3 deg, latency +0.040 s), or a JSON object / JSON file "
                    "{sensor_id: {name: value}} with the data contract's names, signs and SI "
                    "units. Written to truth_calibration.json.")
+@click.option("--objects", "objects", default=None, metavar="KIND",
+              help="Several objects instead of one: crossing, formation, lock-jump, "
+                   "operator-switch, surveillance or mixed. Objects with GPS are declared "
+                   "targets, the others are not; also writes truth_association.csv and "
+                   "truth_events.json. Not combined with --sensors, --rate-scale, --faults.")
+@click.option("--n-objects", type=int, default=None,
+              help="With --objects: how many objects (default: drawn within the kind's range).")
 @quiet_option
 @library_errors
 def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_scale: float,
-                 faults: str, quiet: bool) -> None:
+                 faults: str, objects: str | None, n_objects: int | None, quiet: bool) -> None:
     """Write a simulated scenario with truth into OUT_DIR.
 
     A maneuvering aircraft seen by a fixed radar, a theodolite, a ship-borne radar with INS,
     target GPS and MISTRAM stations, with realistic noise, dropouts, bursts and wild points.
     Writes the sensor files, scenario.toml (a contract-only config) and truth.csv (and, with
-    --faults, the injected systematic errors as truth_calibration.json).
+    --faults, the injected systematic errors as truth_calibration.json). With --objects, a
+    multi-object scenario of that kind (tracks that jump, surveillance plots with clutter).
     """
-    from rangeproc.simulate import resolve_faults, simulate_scenario
+    from rangeproc.simulate import resolve_faults, simulate_multi, simulate_scenario
 
-    path = simulate_scenario(out_dir, seed=seed, duration=duration, sensors=sensors,
-                             rate_scale=rate_scale, faults=resolve_faults(faults))
+    if objects is None:
+        if n_objects is not None:
+            raise ConfigError("simulate: --n-objects needs --objects KIND")
+        path = simulate_scenario(out_dir, seed=seed, duration=duration, sensors=sensors,
+                                 rate_scale=rate_scale, faults=resolve_faults(faults))
+    else:
+        extra = [name for name, given in (("--sensors", sensors != "all"),
+                                          ("--rate-scale", rate_scale != 1.0),
+                                          ("--faults", faults.strip().lower() != "none"))
+                 if given]
+        if extra:
+            raise ConfigError(f"simulate: --objects cannot be combined with {extra[0]}")
+        path = simulate_multi(out_dir, kind=objects, seed=seed, duration=duration,
+                              n_objects=n_objects)
     if not quiet:
         click.echo(f"wrote scenario {path}")
 

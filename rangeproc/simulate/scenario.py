@@ -167,21 +167,8 @@ def draw_scenario(seed: int, duration: float, rate_scale: float = 1.0) -> Scenar
             th_windows.append((start, a))
         start = max(start, b)
     th_windows.append((start, t0 + duration + 1.0))
-    # ship
     north = seed % 4 == 1
-    course = math.radians(g.uniform(-1, 1) if north else g.uniform(0, 360)) % (2 * math.pi)
-    speed = g.uniform(5, 12)  # the middle of the ship's track is 15-30 km from the origin
-    mid_e, mid_n = _polar(g, 15e3, 30e3)
-    half = 0.5 * speed * duration
-    ship = sn.ShipMotion(
-        start=_geo_at(origin, mid_e - half * math.sin(course), mid_n - half * math.cos(course),
-                      g.uniform(-30, 40)),
-        course=course, speed=speed,
-        heave=(g.uniform(0.3, 1.5), g.uniform(6, 12), g.uniform(0, 2 * math.pi)),
-        roll=(math.radians(g.uniform(3, 8)), g.uniform(8, 14), g.uniform(0, 2 * math.pi)),
-        pitch=(math.radians(g.uniform(1, 3)), g.uniform(5, 8), g.uniform(0, 2 * math.pi)),
-        yaw=(math.radians(g.uniform(1.5 if north else 1, 2)), g.uniform(10, 20),
-             g.uniform(0, 2 * math.pi)))
+    ship = draw_ship(g, origin, duration, north)
     lever = (round(g.uniform(5, 20), 2), round(g.uniform(-3, 3), 2), round(g.uniform(-25, -10), 2))
     s1_sigma = {"range": _r(g.uniform(5, 10)), "azimuth": _r(g.uniform(0.3, 1) * _MRAD, 6),
                 "elevation": _r(g.uniform(0.3, 1) * _MRAD, 6)}
@@ -208,6 +195,26 @@ def draw_scenario(seed: int, duration: float, rate_scale: float = 1.0) -> Scenar
         g1_sigma=g1_sigma, g1_dropouts=drop, g1_burst=burst, stations=stations,
         mistram_sigma=_r(g.uniform(0.03, 0.1), 3), wild_fraction=g.uniform(0.005, 0.01),
         rate_scale=float(rate_scale))
+
+
+def draw_ship(g: np.random.Generator, origin: sn.Geo, duration: float, north: bool
+              ) -> sn.ShipMotion:
+    """A ship sailing 5-12 m/s for ``duration`` s, the middle of its track 15-30 km from the
+    origin, with heave, roll, pitch and yaw oscillations; ``north``: course within 1 deg of
+    north (its yaw wraps across 0/360)."""
+    course = math.radians(g.uniform(-1, 1) if north else g.uniform(0, 360)) % (2 * math.pi)
+    speed = g.uniform(5, 12)  # the middle of the ship's track is 15-30 km from the origin
+    mid_e, mid_n = _polar(g, 15e3, 30e3)
+    half = 0.5 * speed * duration
+    return sn.ShipMotion(
+        start=_geo_at(origin, mid_e - half * math.sin(course), mid_n - half * math.cos(course),
+                      g.uniform(-30, 40)),
+        course=course, speed=speed,
+        heave=(g.uniform(0.3, 1.5), g.uniform(6, 12), g.uniform(0, 2 * math.pi)),
+        roll=(math.radians(g.uniform(3, 8)), g.uniform(8, 14), g.uniform(0, 2 * math.pi)),
+        pitch=(math.radians(g.uniform(1, 3)), g.uniform(5, 8), g.uniform(0, 2 * math.pi)),
+        yaw=(math.radians(g.uniform(1.5 if north else 1, 2)), g.uniform(10, 20),
+             g.uniform(0, 2 * math.pi)))
 
 
 def _r(x: float, nd: int = 2) -> float:
@@ -237,9 +244,7 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True,
         t_true = t_true[~sn.in_intervals(t_true, sc.g1_dropouts)]
     t_file, t_meas = sn.file_times(t_true, off)
     if sid == "G1" and sc.iso_gps:
-        us = np.round((t_true - off) * 1e6).astype(np.int64)
-        t_meas = us / 1e6 + off
-        t_file = np.char.add(np.datetime_as_string(us.astype("datetime64[us]"), unit="us"), "Z")
+        t_file, t_meas = iso_file_times(t_true, off)
     t_geo = true_times(t_meas, f.get("latency", 0.0))
     cols: dict[str, np.ndarray]
     if sid == "MISTRAM":
@@ -287,6 +292,15 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True,
     return cols
 
 
+def iso_file_times(t_true: np.ndarray, offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Timestamps as ISO-8601 UTC strings (Unix seconds ``t_true - offset`` to 1 us, 'Z') and
+    the measurement times a reader reconstructs from them (s, written + offset)."""
+    us = np.round((t_true - offset) * 1e6).astype(np.int64)
+    t_meas = us / 1e6 + offset
+    t_file = np.char.add(np.datetime_as_string(us.astype("datetime64[us]"), unit="us"), "Z")
+    return t_file, t_meas
+
+
 def true_times(t_meas: np.ndarray, latency: float) -> np.ndarray:
     """True times (s) of measurements stamped ``t_meas`` (after ``time_offset``) by a sensor
     whose stamps are ``latency`` s late: t_meas - latency (t_meas itself for no latency)."""
@@ -295,12 +309,19 @@ def true_times(t_meas: np.ndarray, latency: float) -> np.ndarray:
 
 def truth_columns(sc: Scenario) -> dict[str, np.ndarray]:
     """truth.csv columns at the 100 Hz trajectory nodes inside [t0, t0 + duration]."""
-    tr = sc.traj
-    keep = tr.node_time <= sc.t0 + sc.duration + 1e-9
+    return trajectory_truth(sc.traj, "T1", sc.origin, sc.t0 + sc.duration)
+
+
+def trajectory_truth(tr: Trajectory, target_id: str, origin: sn.Geo, t_end: float
+                     ) -> dict[str, np.ndarray]:
+    """truth.csv columns of one object at its 100 Hz nodes up to range time ``t_end`` (s):
+    target_id, time, e, n, u, ve, vn, vu, ae, an, au (range ENU, m, m/s, m/s^2), lat, lon
+    (deg), height (m)."""
+    keep = tr.node_time <= t_end + 1e-9
     p, v, a = tr.node_p[keep], tr.node_v[keep], tr.node_a[keep]
-    lat, lon, h = pm.enu2geodetic(p[:, 0], p[:, 1], p[:, 2], sc.origin.lat, sc.origin.lon,
-                                  sc.origin.height)
-    cols: dict[str, np.ndarray] = {"target_id": np.full(p.shape[0], "T1"),
+    lat, lon, h = pm.enu2geodetic(p[:, 0], p[:, 1], p[:, 2], origin.lat, origin.lon,
+                                  origin.height)
+    cols: dict[str, np.ndarray] = {"target_id": np.full(p.shape[0], target_id),
                                    "time": np.round(tr.node_time[keep], 6)}
     for i, ax in enumerate("enu"):
         cols[ax] = p[:, i]
@@ -528,10 +549,13 @@ _ANGLE_DECIMALS = 10  # azimuth/elevation: 1e-10 deg/rad/mil
 _TRUTH_DECIMALS = {"time": 6, "lat": 11, "lon": 11}  # others: 7 (0.1 um, 0.1 um/s)
 
 
-def _table(cols: dict[str, np.ndarray], decimals: dict[str, int], default: int) -> pa.Table:
+def _table(cols: Mapping[str, np.ndarray | pa.Array], decimals: dict[str, int],
+           default: int) -> pa.Table:
     arrays = {}
     for k, val in cols.items():
-        if val.dtype.kind == "f":
+        if isinstance(val, pa.Array):  # typed with nulls, e.g. track_id with empty cells
+            arrays[k] = val
+        elif val.dtype.kind == "f":
             val = np.round(val, decimals.get(k, default))
             arrays[k] = pa.array(val, from_pandas=True)  # NaN -> null (empty cell)
         else:
@@ -539,13 +563,27 @@ def _table(cols: dict[str, np.ndarray], decimals: dict[str, int], default: int) 
     return pa.table(arrays)
 
 
+def int_column(values: np.ndarray, present: np.ndarray) -> pa.Array:
+    """(M,) integers as a column whose cells are empty where ``present`` (M,) bool is False
+    (e.g. a ``track_id`` column holding plots), for :func:`atomic_write_table`."""
+    return pa.array(np.asarray(values, dtype=np.int64), mask=~np.asarray(present, dtype=bool),
+                    type=pa.int64())
+
+
+def text_column(values: list[str | None]) -> pa.Array:
+    """Strings as a column whose ``None`` cells are empty, for :func:`atomic_write_table`."""
+    return pa.array(values, type=pa.string())
+
+
 def _tmp_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}.tmp")
 
 
-def atomic_write_table(path: Path, cols: dict[str, np.ndarray], *, truth: bool = False) -> None:
+def atomic_write_table(path: Path, cols: Mapping[str, np.ndarray | pa.Array], *,
+                       truth: bool = False) -> None:
     """Write columns as CSV (plain header, empty cell = missing) or Parquet (by extension),
-    via a temporary file renamed into place. Floats are rounded (``truth``: finer)."""
+    via a temporary file renamed into place. Floats are rounded (``truth``: finer); a
+    ``pa.Array`` column is written as it is (its nulls as empty cells)."""
     if truth:
         table = _table(cols, _TRUTH_DECIMALS, 7)
     else:

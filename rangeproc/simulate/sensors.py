@@ -206,9 +206,19 @@ def rae_columns(rng: np.random.Generator, t_file: np.ndarray, rae: tuple[np.ndar
     noise: Gaussian noise, wild points on a ``wild_fraction`` of rows (range +-100..500 m,
     angles +-3..20 mrad) and ``n_missing`` empty cells in column ``missing``.
     """
+    return rae_columns_wild(rng, t_file, rae, sigma, unit, noise=noise,
+                            wild_fraction=wild_fraction, n_missing=n_missing,
+                            missing=missing)[0]
+
+
+def rae_columns_wild(rng: np.random.Generator, t_file: np.ndarray, rae: tuple[np.ndarray, ...],
+                     sigma: dict[str, float], unit: str, *, noise: bool, wild_fraction: float,
+                     n_missing: int, missing: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """:func:`rae_columns` and the (M,) bool mask of the rows given a wild error."""
     names = ("range", "azimuth", "elevation", "range_rate")[: len(rae)]
     cols = {k: np.array(val, dtype=float) for k, val in zip(names, rae)}
     m = t_file.size
+    wild = np.zeros(m, dtype=bool)
     if noise:
         for k in names:
             cols[k] += rng.normal(0.0, sigma.get(k, 0.0), m)
@@ -216,16 +226,18 @@ def rae_columns(rng: np.random.Generator, t_file: np.ndarray, rae: tuple[np.ndar
         mode = rng.integers(0, 3, rows.size)  # 0 range, 1 angles, 2 both
         hit_r, hit_a = rows[mode != 1], rows[mode != 0]
         cols["range"][hit_r] += signed_uniform(rng, 100.0, 500.0, hit_r.size)
+        wild[hit_r[np.isfinite(cols["range"][hit_r])]] = True  # (not ranged: no error)
         for k in ("azimuth", "elevation"):
             sel = hit_a[rng.random(hit_a.size) < 0.7]
             cols[k][sel] += signed_uniform(rng, 3e-3, 20e-3, sel.size)
+            wild[sel] = True
         cols[missing][pick_rows(rng, m, n_missing)] = np.nan
     cols["azimuth"] = np.mod(cols["azimuth"], 2 * math.pi)
     scale = ANGLE_SCALE[unit]
     out = {"time": t_file}
     for k in names:
         out[k] = cols[k] * scale if k in ("azimuth", "elevation") else cols[k]
-    return out
+    return out, wild
 
 
 def ins_columns(rng: np.random.Generator, t_file: np.ndarray, tau: np.ndarray, ship: ShipMotion,

@@ -210,9 +210,62 @@ def plan_trajectory(rng: np.random.Generator, duration: float, t0: float,
     # tangential heading (clockwise from north): direction (-sin a, cos a) * sense, +-30 deg
     psi0 = math.atan2(-sense * math.sin(ang), sense * math.cos(ang))
     psi0 += math.radians(rng.uniform(-30.0, 30.0))
+    return fly(rng, duration, t0, p_start=p_start, v0=v0, psi0=psi0, h=h)
+
+
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """One scripted maneuver of :func:`fly`: ``kind`` 'straight' (``seconds`` of straight,
+    level flight at constant speed) or 'turn' (a level coordinated turn by ``turn`` rad,
+    positive right, at ``level`` g of horizontal acceleration, rising and falling over ``ramp``
+    s, shortened for small turns)."""
+
+    kind: str
+    seconds: float = 0.0
+    turn: float = 0.0
+    level: float = 0.0
+    ramp: float = 1.5
+
+
+def script_rows(legs: tuple[Leg, ...] | list[Leg], speed: float
+                ) -> tuple[dict[str, list[tuple[float, float, float, float]]], list[Segment],
+                           float, float]:
+    """Control pulses of scripted legs flown from relative time 0 at ``speed`` m/s.
+
+    Returns the pulse rows per channel (see :func:`_pulses`), the segments, the script's end
+    (relative s) and its total heading change (rad)."""
     rows: dict[str, list[tuple[float, float, float, float]]] = {"v": [], "psi": [], "gam": []}
     segments: list[Segment] = []
-    p, speed, psi, tau = p_start.copy(), v0, psi0, 0.0
+    tau, dpsi_total = 0.0, 0.0
+    for leg in legs:
+        if leg.kind == "straight":
+            seg_t = max(0.0, leg.seconds)
+            if seg_t > 0.0:
+                segments.append(Segment("straight", tau, tau + seg_t))
+        elif leg.kind == "turn":
+            rate = leg.level * G0 / speed
+            ramp = min(leg.ramp, 0.5 * abs(leg.turn) / rate)
+            hold = abs(leg.turn) / rate - ramp  # integral of the pulse = rate * (ramp + hold)
+            seg_t = 2 * ramp + hold
+            rows["psi"].append((tau, ramp, hold, math.copysign(rate, leg.turn)))
+            segments.append(Segment("turn", tau, tau + seg_t, leg.level, leg.turn))
+            dpsi_total += leg.turn
+        else:
+            raise ValueError(f"unknown leg kind {leg.kind!r}")
+        tau += seg_t
+    return rows, segments, tau, dpsi_total
+
+
+def fly(rng: np.random.Generator, duration: float, t0: float, *, p_start: np.ndarray,
+        v0: float, psi0: float, legs: tuple[Leg, ...] | list[Leg] = (),
+        h: float = 0.01) -> Trajectory:
+    """Fly scripted ``legs`` from ``p_start`` (3,) m range ENU at speed v0 (m/s), heading psi0
+    (rad), then random maneuvers (drawn from rng) until ``duration`` s; integrate on nodes
+    every h s. Without legs this is the planner of :func:`plan_trajectory`."""
+    rows, segments, tau, dpsi = script_rows(legs, v0)
+    p, speed, psi = p_start.copy(), v0, psi0 + dpsi
+    if legs:
+        p = p + _displacement(v0, psi0, _pulses(rows), 0.0, tau)
     while tau < duration:
         room = _straight_room(p[:2], np.array([math.sin(psi), math.cos(psi)])) / speed
         kind = "straight" if not segments else str(
@@ -254,6 +307,21 @@ def plan_trajectory(rng: np.random.Generator, duration: float, t0: float,
     return Trajectory(t0=float(t0), duration=float(duration), v0=v0, psi0=psi0, gamma0=0.0,
                       speed_rate=pulses[0], turn_rate=pulses[1], path_rate=pulses[2], h=h,
                       node_p=node_p, node_v=node_v, node_a=node_a, segments=tuple(segments))
+
+
+def fly_through(rng: np.random.Generator, duration: float, t0: float, *, tau: float,
+                p: np.ndarray, psi: float, speed: float, legs: tuple[Leg, ...] | list[Leg],
+                h: float = 0.01) -> Trajectory:
+    """:func:`fly` with the start solved so that the aircraft is at ``p`` (3,) m range ENU with
+    heading ``psi`` (rad) at relative time ``tau`` (s), which must lie within the scripted legs
+    (not inside a turn); speed (m/s) is constant through the legs."""
+    rows, _, tau_end, _ = script_rows(legs, speed)
+    if not 0.0 <= tau <= tau_end:
+        raise ValueError(f"anchor time {tau!r} s outside the scripted legs (0..{tau_end:g} s)")
+    pulses = _pulses(rows)
+    psi0 = psi - float(pulses[1].evaluate(np.array([tau]))[1][0])
+    p_start = np.asarray(p, float) - _displacement(speed, psi0, pulses, 0.0, tau)
+    return fly(rng, duration, t0, p_start=p_start, v0=speed, psi0=psi0, legs=legs, h=h)
 
 
 def _pulses(rows: dict[str, list[tuple[float, float, float, float]]]
