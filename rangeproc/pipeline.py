@@ -46,10 +46,15 @@ from rangeproc.tracking.routing import (
     association_summary,
     association_table,
     object_rows,
+    stray_points,
     target_of,
 )
 
 log = logging.getLogger(__name__)
+
+#: Gaps between an object's spans up to this many times ``max_gap`` are bridged in the output
+#: (``fusion.bridge``); longer ones stay empty.
+BRIDGE_FACTOR = 10.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -218,6 +223,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     with clock.stage("associate", 1) as tick:
         parts_of, synthesis = object_rows(cfg, rows, settings, priors, tick)
     kept = {sid: a.rows.source_row for sid, a in rows.items()}
+    stray = stray_points(cfg, rows, synthesis)
     rows.clear()                                     # the object parts hold the data now
     with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
         for oid in list(parts_of):
@@ -239,7 +245,8 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                 log.warning("object %s left out: %s", oid, exc)
             del batch
     for tid, result in fused:
-        track = track_estimate(tid, result, frame, cfg.output.rate_hz)
+        track = track_estimate(tid, result, frame, cfg.output.rate_hz,
+                               max_bridge=BRIDGE_FACTOR * settings.max_gap)
         tracks.append(track)
         for i in np.unique(result.batch.sensor):
             i = int(i)
@@ -291,16 +298,18 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         with clock.stage("write"):
             write_parquet(fused_table(tracks), stage / "fused.parquet")
             write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
-            write_parquet(association_table(
+            association = association_table(
                 cfg, synthesis, {sid: (lg.row, lg.time) for sid, lg in logs.items()}, kept,
                 {sid: lg.n_read for sid, lg in logs.items()},
-                cfg.targets[0].id if synthesis is None else None),
-                stage / "association.parquet")
-        with clock.stage("report", 4 + len(residuals)) as tick:
+                cfg.targets[0].id if synthesis is None else None)
+            write_parquet(association, stage / "association.parquet")
+        with clock.stage("report", 4 + len(residuals) + 2 * (synthesis is not None)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
                                    sites=sites, calibration={
                                        sid: ss["calibration"] for sid, ss in
                                        sensor_summary.items() if ss.get("calibration")},
+                                   association=association if synthesis is not None else None,
+                                   stray=stray,
                                    progress=lambda name: tick(1, name))
         summary = {
             "rangeproc_version": rangeproc.__version__,

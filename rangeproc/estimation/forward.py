@@ -67,6 +67,26 @@ LOG_2PI = math.log(2.0 * math.pi)
 #: value that slipped past editing) must not blow the covariance up to where the next updates
 #: lose positive definiteness to rounding.
 MAX_RESET_INFLATION = 1e6
+#: Ceilings of the divergence guard: it never inflates a position sigma beyond
+#: ``RESET_CEILING[0]`` m, a velocity sigma beyond ``[1]`` m/s, an acceleration sigma beyond
+#: ``[2]`` m/s^2 (a track that lost its object is then "anywhere near here", which is all a
+#: re-acquisition needs). Without them, a sensor whose rows keep failing the gate (an
+#: angle-only sensor on another object, which no inflation can bring back) inflated the
+#: covariance every ``reset_after`` rows, compounding to 1e87 m^2 until rounding made it
+#: indefinite and the smoother failed ("predicted covariance not positive definite in RTS").
+RESET_CEILING = (1.0e4, 1.0e3, 1.0e2)
+
+
+@njit(cache=True, error_model="numpy")
+def bounded_inflation(P: np.ndarray, factor: float) -> float:
+    """The divergence guard's factor, lowered so that no kinematic variance of ``P`` (n, n)
+    exceeds its ``RESET_CEILING`` (never below 1: a covariance already there stays)."""
+    n = min(P.shape[0], N_KINEMATIC)
+    for a in range(n):
+        ceiling = RESET_CEILING[a // 3] ** 2
+        if P[a, a] * factor > ceiling:
+            factor = max(1.0, min(factor, ceiling / max(P[a, a], 1e-300)))
+    return factor
 
 #: ``stf`` argument of :func:`kalman_forward` that switches strong-tracking fading off.
 NO_FADING = np.zeros(0)
@@ -387,8 +407,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
             "agreeing" with a track that drifted along its line of sight), the kinematic
             covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` (at most
-            ``MAX_RESET_INFLATION``, and at most once per epoch: thousands of rows sharing
-            one time stamp must not compound it) so the track
+            ``MAX_RESET_INFLATION``, never beyond ``RESET_CEILING``, and at most once per
+            epoch: thousands of rows sharing one time stamp must not compound it) so the track
             re-acquires instead of rejecting that sensor for ever. 0 disables.
         x_lin: (E, n) linearisation states per epoch (the previous smoothed trajectory: one
             Gauss-Newton step of the iterated extended Kalman smoother), or an array with zero
@@ -579,8 +599,9 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 consecutive[sensor[i]] += 1
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
                         and last_reset != k:
-                    factor = min(max(reset_inflation, 4.0 * val / gate[m]),
-                                 MAX_RESET_INFLATION)
+                    factor = bounded_inflation(P, min(max(reset_inflation,
+                                                          4.0 * val / gate[m]),
+                                                      MAX_RESET_INFLATION))
                     for a in range(min(n, N_KINEMATIC)):
                         for b in range(min(n, N_KINEMATIC)):
                             P[a, b] *= factor

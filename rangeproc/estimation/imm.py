@@ -45,6 +45,7 @@ from numba import njit
 from rangeproc.estimation.forward import (
     EKF,
     MAX_RESET_INFLATION,
+    bounded_inflation,
     row_moments,
     row_workspace,
     update_row,
@@ -364,9 +365,10 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 consecutive[sensor[i]] += 1
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
                         and last_reset != k:
-                    factor = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
-                                 MAX_RESET_INFLATION)
+                    base = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
+                               MAX_RESET_INFLATION)
                     for j in range(r):
+                        factor = bounded_inflation(PP[j], base)
                         for a in range(min(n, N_KINEMATIC)):
                             for b in range(min(n, N_KINEMATIC)):
                                 PP[j, a, b] *= factor

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.linalg import unpack
+from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.centralised import FusionResult
 from rangeproc.models.measurement import COMPONENTS
@@ -58,19 +59,28 @@ def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
 
 
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
-                   rate_hz: float) -> TrackEstimate:
-    """The smoothed state on the output grid, with geodetic position and n_sensors."""
+                   rate_hz: float, max_bridge: float = 0.0) -> TrackEstimate:
+    """The smoothed state on the output grid, with geodetic position and n_sensors; gaps
+    between spans up to ``max_bridge`` s are filled by the least-squares fit of
+    ``fusion.bridge``."""
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
     P = grid_covariances(result.Ps[result.grid], n)[:, :9, :9]
+    filled = np.zeros(t.size, dtype=bool)
+    if max_bridge > 0.0 and len(result.spans) > 1:
+        t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
     names, gap = epoch_provenance(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc],
                                   result.batch.sensor_ids)
-    prob = {} if result.model_prob is None else {
-        name: result.model_prob[result.grid][:, j] for j, name in enumerate(result.model_names)}
+    prob = {}
+    if result.model_prob is not None:
+        for j, name in enumerate(result.model_names):
+            p = np.full(t.size, np.nan)
+            p[~filled] = result.model_prob[result.grid][:, j]
+            prob[name] = p
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
                          spans=result.spans, model_prob=prob, sensors=names, data_gap=gap)

@@ -301,7 +301,16 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     rate = None
     for it in range(IRLS_PASSES):
         Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*args, batch.z, weight, *geo, p)
-        S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
+        try:
+            S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
+        except np.linalg.LinAlgError:
+            log.warning("registration skipped: the joint normal matrix is not positive "
+                        "definite (an ill-conditioned track); rows left uncorrected")
+            why = ("registration failed: the joint normal matrix of track and terms is not "
+                   "positive definite (an ill-conditioned track)")
+            return (Calibration(terms, total, total, np.zeros((p, p)), (why,) * p, node_t,
+                                np.zeros((len(node_t), N_NODE, N_NODE))),
+                    np.zeros(p), np.zeros((len(batch), 4)))
         dc = np.zeros(p)
         if has_ref and p:
             reason = _select(S, s_prior, terms, batch.sensor_ids, n_rows)

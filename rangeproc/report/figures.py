@@ -12,10 +12,12 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
+import pandas as pd
 
 from rangeproc.report.calibration import plot_calibration
 from rangeproc.report.common import STYLE, merge_sensors, safe_name, save_figure, time_origin
 from rangeproc.report.consistency import plot_consistency
+from rangeproc.report.objects import plot_object_timeline, plot_plan
 from rangeproc.report.residuals import plot_residuals
 from rangeproc.report.timeline import plot_coverage
 from rangeproc.report.trajectory import plot_trajectory
@@ -43,17 +45,23 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
                  residuals: Sequence[SensorResiduals], *,
                  sites: Mapping[str, np.ndarray] | None = None,
                  calibration: Mapping[str, Mapping[str, dict]] | None = None,
-                 progress: Callable[[str], None] | None = None) -> list[Path]:
+                 progress: Callable[[str], None] | None = None,
+                 association: pd.DataFrame | None = None,
+                 stray: np.ndarray | None = None) -> list[Path]:
     """Draw and write the report figures into ``report_dir`` (created if missing).
 
     tracks: smoothed trajectories (range ENU metres, s); residuals: post-fit residual sets
     (several sets of one sensor id, e.g. one per target, are drawn together); sites: sensor /
     station id -> (3,) fixed position or (N, 3) platform track in range ENU metres, drawn on
     the map; calibration: ``summary.json``'s per-sensor ``calibration`` entries (drawn when
-    any); progress: called with a short message before each figure.
+    any); progress: called with a short message before each figure; association: the
+    ``association.parquet`` table (columns sensor, row, time, target_id, segment, reason);
+    stray: (M, 3) range ENU metres of the unassigned / clutter plots, drawn grey in the plan.
 
     Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor (after the calibration's
-    corrections), ``consistency.png``, ``coverage.png`` and ``calibration.png``; returns their
+    corrections), ``consistency.png``, ``coverage.png``, ``objects.png`` (which sensor saw
+    which object when) and ``plan.png`` (every object in plan view; both only when
+    ``association`` holds any row) and ``calibration.png`` (when any); returns their
     paths in that order. Each file is written atomically (temp
     file + ``os.replace``), so an exception leaves no partial or temp file behind; files
     finished before the exception stay.
@@ -77,6 +85,10 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
             emit(name, lambda v=view: plot_residuals(v, t0))
         emit("consistency.png", lambda: plot_consistency(views, t0))
         emit("coverage.png", lambda: plot_coverage(views, tracks, t0))
+        if association is not None and len(association):
+            emit("objects.png", lambda: plot_object_timeline(association, tracks, t0))
+            emit("plan.png", lambda: plot_plan(
+                tracks, np.zeros((0, 3)) if stray is None else stray, sites))
         if calibration:
             emit("calibration.png", lambda: plot_calibration(calibration))
     log.info("report: %d figures in %s", len(written), report_dir)

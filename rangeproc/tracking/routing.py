@@ -69,6 +69,34 @@ def object_rows(cfg: Config, rows: Mapping[str, Assembled], settings: EstimatorS
     return out, syn
 
 
+def stray_points(cfg: Config, rows: Mapping[str, Assembled], syn: Synthesis | None,
+                 most: int = 200_000) -> np.ndarray:
+    """(M, 3) range ENU m of the unassigned radar/theodolite rows with range (clutter and the
+    rows no object fits), for the plan view; at most ``most``, evenly spread."""
+    if syn is None:
+        return np.zeros((0, 3))
+    out = []
+    for i, s in enumerate(cfg.sensors):
+        if i not in syn.row_object or s.id not in rows:
+            continue
+        r = rows[s.id].rows
+        sel = np.flatnonzero((syn.row_object[i] == "") & np.isfinite(r.z[:, 0])
+                             & np.isfinite(r.z[:, 1]))
+        if sel.size == 0:
+            continue
+        z = r.z[sel]
+        el = np.where(np.isfinite(z[:, 2]), z[:, 2], 0.0)
+        d = np.column_stack([z[:, 0] * np.cos(el) * np.sin(z[:, 1]),
+                             z[:, 0] * np.cos(el) * np.cos(z[:, 1]), z[:, 0] * np.sin(el)])
+        out.append(r.s[sel] + np.einsum("nji,nj->ni", r.Qr[sel], d))
+    if not out:
+        return np.zeros((0, 3))
+    pts = np.concatenate(out)
+    if len(pts) > most:
+        pts = pts[np.linspace(0, len(pts) - 1, most).astype(np.int64)]
+    return pts
+
+
 def association_table(cfg: Config, syn: Synthesis | None,
                       file_rows: Mapping[str, tuple[np.ndarray, np.ndarray]],
                       kept: Mapping[str, np.ndarray], n_read: Mapping[str, int],

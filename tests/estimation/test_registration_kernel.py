@@ -190,3 +190,14 @@ def test_schur_solution_equals_the_dense_least_squares():
     # (finite-difference Jacobians in the dense oracle: agreement to ~1e-5 relative)
     np.testing.assert_allclose(c, sol[9 * G:], rtol=1e-4)
     np.testing.assert_allclose(dx.ravel(), sol[:9 * G], rtol=1e-4, atol=1e-3)
+
+
+def test_the_divergence_guard_never_inflates_beyond_its_ceilings() -> None:
+    from rangeproc.estimation.forward import RESET_CEILING, bounded_inflation
+
+    P = np.diag(np.r_[np.full(3, 1e2), np.full(3, 1.0), np.full(3, 0.1)])
+    assert bounded_inflation(P, 100.0) == 100.0                 # far below the ceilings
+    f = bounded_inflation(P, 1e6)
+    assert (np.diag(P)[:3] * f).max() <= RESET_CEILING[0] ** 2 * (1 + 1e-12)
+    huge = np.diag(np.r_[np.full(3, 1e12), np.ones(6)])
+    assert bounded_inflation(huge, 1e6) == 1.0                  # already there: no growth

@@ -1,0 +1,104 @@
+"""Bridging the gaps between an object's spans: a least-squares fit with honest uncertainty.
+
+A target unobserved for longer than ``max_gap`` is estimated as separate spans (each with
+its own start; ``fusion.centralised``). When the same object is seen again (a relay between
+sensors, or the same sensor after a long outage), seed 003 fills the discontinuity by a
+least-squares fit of the track on both sides. Here that fit is the weighted least-squares
+state of the constant-acceleration motion given both ends: at an epoch t inside the gap
+[t_a, t_b] the forward prediction from the last state of the earlier span,
+``x_f = F(t - t_a) x_a``, ``P_f = F P_a Fᵀ + Q(t - t_a)``, and the backward prediction from
+the first state of the later span, ``x_r = F(t - t_b) x_b``,
+``P_r = F(t - t_b) (P_b + Q(t_b - t)) F(t - t_b)ᵀ`` (the later state's likelihood carried back
+through the motion and its noise), are combined in information form: ``P = (P_f⁻¹ + P_r⁻¹)⁻¹``, ``x = P (P_f⁻¹ x_f + P_r⁻¹ x_r)``
+(the two-filter smoother across a gap without data; the spans' estimates are independent).
+``Q`` is the white-jerk noise with the larger of the two ends' process noise, so the
+uncertainty grows towards the middle of the gap as the motion model says it must. Gaps
+longer than ``max_seconds`` are left empty (an object seen again hours later is not drawn
+across the sky).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def ca_transition(dt: np.ndarray) -> np.ndarray:
+    """(M, 9, 9) constant-acceleration transitions over ``dt`` (M,) s, state [p, v, a]."""
+    dt = np.asarray(dt, dtype=float)
+    F = np.broadcast_to(np.eye(9), (dt.size, 9, 9)).copy()
+    for ax in range(3):
+        F[:, ax, 3 + ax] = dt
+        F[:, ax, 6 + ax] = 0.5 * dt * dt
+        F[:, 3 + ax, 6 + ax] = dt
+    return F
+
+
+def ca_noise(dt: np.ndarray, q: float) -> np.ndarray:
+    """(M, 9, 9) white-jerk process noise over ``|dt|`` (M,) s with PSD ``q`` (m^2/s^5)."""
+    a = np.abs(np.asarray(dt, dtype=float))
+    Q = np.zeros((a.size, 9, 9))
+    terms = {(0, 0): a**5 / 20, (0, 1): a**4 / 8, (0, 2): a**3 / 6, (1, 1): a**3 / 3,
+             (1, 2): a**2 / 2, (2, 2): a}
+    for ax in range(3):
+        for (i, j), v in terms.items():
+            Q[:, 3 * i + ax, 3 * j + ax] = q * v
+            Q[:, 3 * j + ax, 3 * i + ax] = q * v
+    return Q
+
+
+def _fit(t: np.ndarray, ta: float, xa: np.ndarray, Pa: np.ndarray, tb: float,
+         xb: np.ndarray, Pb: np.ndarray, q: float) -> tuple[np.ndarray, np.ndarray]:
+    """(M, 9) states and (M, 9, 9) covariances at times ``t`` (M,) inside the gap."""
+    Ff, Fr = ca_transition(t - ta), ca_transition(t - tb)
+    xf = Ff @ xa
+    Pf = Ff @ Pa @ np.transpose(Ff, (0, 2, 1)) + ca_noise(t - ta, q)
+    xr = Fr @ xb
+    Pr = Fr @ (Pb + ca_noise(tb - t, q)) @ np.transpose(Fr, (0, 2, 1))
+    If, Ir = np.linalg.inv(Pf), np.linalg.inv(Pr)
+    P = np.linalg.inv(If + Ir)
+    P = 0.5 * (P + np.transpose(P, (0, 2, 1)))
+    x = np.einsum("mij,mj->mi", P, np.einsum("mij,mj->mi", If, xf)
+                  + np.einsum("mij,mj->mi", Ir, xr))
+    return x, P
+
+
+def bridge_gaps(t: np.ndarray, x: np.ndarray, P: np.ndarray, q: np.ndarray, rate_hz: float,
+                max_seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Output epochs with the gaps between spans filled (module docstring).
+
+    Args:
+        t: (K,) s output-grid epochs (whole multiples of 1/rate_hz; a step longer than 1.5
+            periods is a gap between spans); x: (K, 9); P: (K, 9, 9); q: (K,) m^2/s^5.
+        max_seconds: longest gap filled.
+    Returns:
+        (t, x, P, filled) with the new epochs inserted in time order; ``filled`` (K',) bool
+        marks them.
+    """
+    period = 1.0 / rate_hz
+    gaps = np.flatnonzero(np.diff(t) > 1.5 * period)
+    if gaps.size == 0:
+        return t, x, P, np.zeros(t.size, dtype=bool)
+    parts_t, parts_x, parts_P, parts_f = [], [], [], []
+    start = 0
+    for g in gaps:
+        parts_t.append(t[start:g + 1])
+        parts_x.append(x[start:g + 1])
+        parts_P.append(P[start:g + 1])
+        parts_f.append(np.zeros(g + 1 - start, dtype=bool))
+        ta, tb = t[g], t[g + 1]
+        if tb - ta <= max_seconds:
+            k0, k1 = int(round(ta * rate_hz)) + 1, int(round(tb * rate_hz)) - 1
+            tt = np.arange(k0, k1 + 1, dtype=float) / rate_hz
+            if tt.size:
+                xs, Ps = _fit(tt, ta, x[g], P[g], tb, x[g + 1], P[g + 1],
+                              float(max(q[g], q[g + 1])))
+                parts_t.append(tt)
+                parts_x.append(xs)
+                parts_P.append(Ps)
+                parts_f.append(np.ones(tt.size, dtype=bool))
+        start = g + 1
+    parts_t.append(t[start:])
+    parts_x.append(x[start:])
+    parts_P.append(P[start:])
+    parts_f.append(np.zeros(t.size - start, dtype=bool))
+    return (np.concatenate(parts_t), np.concatenate(parts_x), np.concatenate(parts_P),
+            np.concatenate(parts_f))
