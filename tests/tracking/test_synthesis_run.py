@@ -95,15 +95,20 @@ def test_fused_epochs_carry_their_provenance(sample_run) -> None:
     assert fused.data_gap_s.max() < 1.0                  # the sample has no uncovered gap
 
 
-def test_a_gap_without_data_is_bridged_with_growing_uncertainty(scenario, cli, explain) -> None:
-    t0 = pd.read_csv(scenario / "G1.csv").time.min()
-    lo, hi = t0 + 50.0, t0 + 56.0
+def cut_every_sensor(scenario, lo: float, hi: float) -> None:
+    """Remove every sensor's rows with time in [lo, hi] (s) from the sample copy."""
     for name in ("R1", "S1", "G1", "MISTRAM"):
         df = pd.read_csv(scenario / f"{name}.csv")
         df[(df.time < lo) | (df.time > hi)].to_csv(scenario / f"{name}.csv", index=False,
                                                     float_format="%.17g")
     th = pd.read_parquet(scenario / "TH1.parquet")
     th[(th.time < lo) | (th.time > hi)].to_parquet(scenario / "TH1.parquet")
+
+
+def test_a_gap_without_data_is_bridged_with_growing_uncertainty(scenario, cli, explain) -> None:
+    t0 = pd.read_csv(scenario / "G1.csv").time.min()
+    lo, hi = t0 + 50.0, t0 + 56.0
+    cut_every_sensor(scenario, lo, hi)
     res = cli(["run", "--quiet", scenario / CONFIG])
     assert res.exit_code == 0, explain(res)
     fused = pd.read_parquet(scenario / "out" / "fused.parquet")
@@ -119,12 +124,7 @@ def test_a_gap_without_data_is_bridged_with_growing_uncertainty(scenario, cli, e
 def test_a_gap_longer_than_max_gap_is_bridged_between_the_spans(scenario, cli, explain) -> None:
     t0 = pd.read_csv(scenario / "G1.csv").time.min()
     lo, hi = t0 + 30.0, t0 + 100.0                   # 70 s > max_gap: two spans
-    for name in ("R1", "S1", "G1", "MISTRAM"):
-        df = pd.read_csv(scenario / f"{name}.csv")
-        df[(df.time < lo) | (df.time > hi)].to_csv(scenario / f"{name}.csv", index=False,
-                                                    float_format="%.17g")
-    th = pd.read_parquet(scenario / "TH1.parquet")
-    th[(th.time < lo) | (th.time > hi)].to_parquet(scenario / "TH1.parquet")
+    cut_every_sensor(scenario, lo, hi)
     res = cli(["run", "--quiet", scenario / CONFIG])
     assert res.exit_code == 0, explain(res)
     summary = json.loads((scenario / "out" / "summary.json").read_text())
