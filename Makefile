@@ -4,13 +4,14 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SEEDS ?= 1 2 3 4 5 6
+MULTI_SEEDS ?= 1 2 3
 REG_SEEDS ?= 1 2 3 4 5
 FILTERS ?= ekf
 SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration multi sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -54,6 +55,10 @@ accuracy: $(STAMP)
 ## registration: the registration sweep (simulator faults with truth, calibration on/off), SEEDS.
 registration: $(STAMP)
 	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS)
+
+## multi: the several-objects sweep (simulator kinds x MULTI_SEEDS, against the true assignment)
+multi: $(STAMP)
+	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS)
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
 sample-data: $(STAMP)
