@@ -11,7 +11,7 @@ SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration multi sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration multi autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -59,6 +59,11 @@ registration: $(STAMP)
 ## multi: the several-objects sweep (simulator kinds x MULTI_SEEDS, against the true assignment)
 multi: $(STAMP)
 	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS)
+
+## autoferry: the real Autoferry data (../shared/realdata/autoferry, tools/autoferry.py) through
+## rangeproc and Stone Soup's GNN tracker, scored vs GNSS truth -> bench/autoferry.json.
+autoferry: $(STAMP)
+	$(BIN)/python bench/autoferry.py
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
 sample-data: $(STAMP)
