@@ -2,6 +2,8 @@
 
 Per kind (DATA_CONTRACT sections 1-2):
 
+* a 2-D radar (elevation empty in every row): elevation 0 with
+  :data:`PLANE_ELEVATION_SIGMA`, the target in the sensor's horizontal plane.
 * radar / theodolite at a fixed ``site``: SPHERICAL rows ``[R, A, E, Rdot]`` with the site's
   position and its own local-ENU rotation (azimuth from the site's true north).
 * radar / theodolite on a ``platform``: the INS attitude and position are interpolated to each
@@ -27,6 +29,13 @@ from rangeproc.frames.platform import platform_geometry
 from rangeproc.fusion.batch import SensorRows, empty_rows
 from rangeproc.io.logs import SensorLog
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+
+#: rad: 1-sigma of the elevation 0 given to every row of a 2-D radar (a radar file whose
+#: elevation column is empty throughout: a navigation radar's or a scanning lidar's plots).
+#: Its fan beam is some 20 deg tall, so the target is in the sensor's horizontal plane to
+#: about a tenth of a radian; without this the height is unobservable and the smoothed height
+#: (and with it the slant range's horizontal part) wanders freely.
+PLANE_ELEVATION_SIGMA = 0.1
 
 #: Body FRD -> (right, forward, up) deck axes used by the SPHERICAL model (its own inverse).
 FRD_TO_DECK = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
@@ -76,6 +85,9 @@ def _spherical(log: SensorLog, cfg: SensorSettings) -> dict[str, np.ndarray]:
             a["z"][:, i] = cols[name] - cfg.calibration.get(name, 0.0)
         if name in cfg.sigma:
             a["sigma"][:, i] = cfg.sigma[name]
+    if cfg.kind == "radar" and n and np.isnan(a["z"][:, 2]).all():
+        a["z"][:, 2] = 0.0
+        a["sigma"][:, 2] = PLANE_ELEVATION_SIGMA
     return a
 
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rangeproc.errors import DataError
+from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 from rangeproc.models.motion import N_KINEMATIC
@@ -55,27 +56,40 @@ def prior_at(prior: Prior, t0: float) -> tuple[np.ndarray, np.ndarray]:
     return x, 0.5 * (P + P.T)
 
 
+
+
 def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows that fix position on their own and the fixed positions.
 
     Returns (row indices (M,), positions (M, 3) range ENU m, 1-sigma (M,) m, a scalar
     accuracy used as the fit weight): GPS rows with a full position, and radar/theodolite rows
-    with range, azimuth and elevation.
+    with range, azimuth and elevation. Where fewer than two such rows exist, rows with range
+    and azimuth but no elevation (a 2-D radar: a navigation radar's or a lidar's plots) are
+    taken in the sensor's horizontal plane (elevation 0 ± :data:`PLANE_ELEVATION_SIGMA`):
+    a start that the measured range and azimuth then correct, the height staying as uncertain
+    as the assumption makes it.
     """
     z = batch.z
     cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
     sph = (batch.model == SPHERICAL) & np.isfinite(z[:, :3]).all(axis=1)
-    rows = np.flatnonzero(cart | sph)
+    plane = np.zeros_like(sph)
+    if np.count_nonzero(cart | sph) < 2:
+        plane = ((batch.model == SPHERICAL) & np.isfinite(z[:, :2]).all(axis=1)
+                 & ~np.isfinite(z[:, 2]))
+    rows = np.flatnonzero(cart | sph | plane)
     local = np.empty((len(rows), 3))
-    zc = z[rows]
+    zc = z[rows].copy()
     is_cart = cart[rows]
+    is_plane = plane[rows]
+    zc[is_plane, 2] = 0.0
     local[is_cart] = zc[is_cart, :3]
     r, az, el = zc[~is_cart, 0], zc[~is_cart, 1], zc[~is_cart, 2]
     local[~is_cart] = np.column_stack([r * np.sin(az) * np.cos(el), r * np.cos(az) * np.cos(el),
                                        r * np.sin(el)])
     # local = Qr (p - s)  =>  p = s + Qr^T local
     pos = batch.s[rows] + np.einsum("nji,nj->ni", batch.Qr[rows], local)
-    sig = batch.sigma[rows]
+    sig = batch.sigma[rows].copy()
+    sig[is_plane, 2] = PLANE_ELEVATION_SIGMA
     acc = np.where(is_cart, np.sqrt(sig[:, 0] ** 2 + sig[:, 1] ** 2 + sig[:, 2] ** 2),
                    np.sqrt(sig[:, 0] ** 2 + (zc[:, 0] * sig[:, 1]) ** 2
                            + (zc[:, 0] * sig[:, 2]) ** 2))
@@ -96,7 +110,7 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         present = sorted({batch.sensor_ids[i] for i in np.unique(batch.sensor)})
         raise NoPositionFix(f"cannot initialise the track: no position fixes from sensors "
                             f"({', '.join(present)}); need GPS or radar/theodolite rows with "
-                            "range, azimuth and elevation, or a given initial state")
+                            "range and azimuth, or a given initial state")
     t = batch.t[rows]
     take = t <= t[0] + window
     if take.sum() < n_min:

@@ -36,6 +36,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
+from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
+
 #: White-acceleration PSD of the constant-velocity model ((m/s^2)^2 / s).
 ACCELERATION_PSD = 400.0
 #: Gate probability of a plot-to-track distance (3 degrees of freedom).
@@ -52,8 +54,9 @@ FRAMED_SHARE = 0.5
 #: A rotating radar: at least this many turns, at most this many seconds per turn.
 MIN_TURNS = 2.0
 MAX_TURN_SECONDS = 30.0
-#: Elevation sigma (rad) given to plots without elevation (placed at elevation 0).
-NO_ELEVATION_SIGMA = 0.1
+#: Elevation sigma (rad) given to plots without elevation (placed at elevation 0), as the
+#: assembly does for a 2-D radar.
+NO_ELEVATION_SIGMA = PLANE_ELEVATION_SIGMA
 
 
 def is_rotating(t: np.ndarray, azimuth: np.ndarray) -> bool:
