@@ -88,6 +88,11 @@ def bounded_inflation(P: np.ndarray, factor: float) -> float:
             factor = max(1.0, min(factor, ceiling / max(P[a, a], 1e-300)))
     return factor
 
+#: A row the gate accepts only in part counts for the divergence guard when its whole-row
+#: chi-square exceeds this many times the gate: far beyond a wild component, it is a track
+#: that the accepted components (an elevation after a manoeuvre) can no longer hold.
+PARTIAL_DIVERGENCE = 10.0
+
 #: ``stf`` argument of :func:`kalman_forward` that switches strong-tracking fading off.
 NO_FADING = np.zeros(0)
 
@@ -403,9 +408,12 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
         x0: (n,), P0: (n, n) prior. q_steps: (E,) white-jerk PSD (m^2/s^5) of the step
             ending at each epoch (index 0 unused). gate: (7,) chi-square thresholds by degrees
             of freedom (inf disables gating).
-        reset_after: divergence guard. When one sensor has this many consecutive rejected
-            rows (other sensors' rows may be accepted in between: an angle-only sensor can keep
-            "agreeing" with a track that drifted along its line of sight), the kinematic
+        reset_after: divergence guard. When one sensor has this many consecutive rows
+            rejected, or accepted only in part with a chi-square above ``PARTIAL_DIVERGENCE``
+            times the gate (other sensors' rows may be accepted in between: an
+            angle-only sensor can keep "agreeing" with a track that drifted along its line of
+            sight; nor does a radar's accepted elevation hold a track whose range and azimuth
+            it rejects after a manoeuvre), the kinematic
             covariance is multiplied by ``max(reset_inflation, 4 nis / gate)`` (at most
             ``MAX_RESET_INFLATION``, never beyond ``RESET_CEILING``, and at most once per
             epoch: thousands of rows sharing one time stamp must not compound it) so the track
@@ -593,10 +601,10 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     r = ew[b] * sig[b]                   # post-update residual z - h(x_k)
                     rss[g] += r * r
                     rss_n[g] += 1
-            if ok:
+            if ok and (mask == 0 or val <= PARTIAL_DIVERGENCE * gate[m]):
                 consecutive[sensor[i]] = 0
-            else:
-                consecutive[sensor[i]] += 1
+            else:                                        # a gross partial rejection counts:
+                consecutive[sensor[i]] += 1              # the rest can hold a drifting track
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
                         and last_reset != k:
                     factor = bounded_inflation(P, min(max(reset_inflation,

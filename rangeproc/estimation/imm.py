@@ -45,6 +45,7 @@ from numba import njit
 from rangeproc.estimation.forward import (
     EKF,
     MAX_RESET_INFLATION,
+    PARTIAL_DIVERGENCE,
     bounded_inflation,
     row_moments,
     row_workspace,
@@ -356,10 +357,14 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                     nis[i] = val
                     rejected[i] = mask
             all_rejected = True                             # divergence guard, as the filter
+            any_rejected = False
             for a in range(m):
                 if (rejected[i] >> idx[a]) & 1 == 0:
                     all_rejected = False
-            if not all_rejected:
+                else:
+                    any_rejected = True
+            if not (all_rejected or any_rejected
+                    and nis[i] > PARTIAL_DIVERGENCE * gate[m]):
                 consecutive[sensor[i]] = 0
             else:
                 consecutive[sensor[i]] += 1

@@ -42,7 +42,7 @@ from rangeproc.estimation.linalg import unpack
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior
-from rangeproc.models.measurement import AZIMUTH, SPHERICAL
+from rangeproc.models.measurement import AZIMUTH
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.plots import (
     is_framed,
@@ -58,6 +58,15 @@ log = logging.getLogger(__name__)
 
 #: A segment is scored against an object whose span it comes within this many seconds of.
 BRIDGE_SECONDS = 60.0
+#: While objects are being discovered, a segment is scored only against objects it overlaps
+#: in time by at least this many seconds (or half its own duration): association first,
+#: relay across gaps once every object exists (step 5), so a relay decision is made among
+#: all the objects that could continue there, not given to the first one discovered.
+OVERLAP_SECONDS = 5.0
+#: Two objects are joined across a gap on the rows within this many seconds of the gap (or
+#: the gap's length, if longer): the carried trajectory predicts the other object only near
+#: its end, and a manoeuvre later on is no evidence against the join.
+RELAY_WINDOW_SECONDS = 10.0
 #: Share of a segment's rows that must fit an object (positive llr) for a candidate link.
 MIN_FIT_SHARE = 0.5
 #: A segment that starts an object alone: rows and duration (s).
@@ -218,15 +227,23 @@ class _Objects:
         return True
 
 
-def _scored_llr(objects: _Objects, seg: Segment, names: list[str], rows: np.ndarray
-                ) -> dict[int, np.ndarray]:
+def overlaps(t0: float, t1: float, u0: float, u1: float) -> bool:
+    """True when span [t0, t1] overlaps [u0, u1] (s) by ``OVERLAP_SECONDS`` or by half of
+    [t0, t1]'s duration, whichever is less."""
+    return min(t1, u1) - max(t0, u0) >= min(OVERLAP_SECONDS, 0.5 * (t1 - t0))
+
+
+def _scored_llr(objects: _Objects, seg: Segment, names: list[str], rows: np.ndarray,
+                relay: bool) -> dict[int, np.ndarray]:
     """Object index -> per-row llr (M,) of the segment's rows ``rows`` against each object
-    whose span it comes within ``BRIDGE_SECONDS`` of."""
+    whose span it comes within ``BRIDGE_SECONDS`` of (``relay``) or overlaps (not)."""
     out: dict[int, np.ndarray] = {}
     batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
     for j, name in enumerate(names):
         tr = objects.tracks.get(name)
         if tr is None or seg.t1 < tr.t[0] - BRIDGE_SECONDS or seg.t0 > tr.t[-1] + BRIDGE_SECONDS:
+            continue
+        if not relay and not overlaps(seg.t0, seg.t1, float(tr.t[0]), float(tr.t[-1])):
             continue
         out[j] = segment_score(batch, rows, tr)[2]
     return out
@@ -273,8 +290,8 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
 
 
 def _score_links(objects: _Objects, pending: list[Segment], names: list[str],
-                 new_id: Callable[[], int], replaced: dict[int, tuple[int, int]]
-                 ) -> tuple[list[Segment], dict[tuple[int, int], float]]:
+                 new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
+                 relay: bool) -> tuple[list[Segment], dict[tuple[int, int], float]]:
     """Candidate links (pending index, object index) -> score (module docstring, step 3),
     after splitting the segments whose rows fit one object and then another
     (``SPLIT_GAIN``): the pending list may change."""
@@ -284,7 +301,7 @@ def _score_links(objects: _Objects, pending: list[Segment], names: list[str],
     while queue:
         seg = queue.pop(0)
         scored = spread(seg.rows, SCORED_ROWS)
-        llr = _scored_llr(objects, seg, names, scored)
+        llr = _scored_llr(objects, seg, names, scored, relay)
         k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
         if gain > SPLIT_GAIN:
             k_rows = int(np.searchsorted(seg.rows, scored[k]))
@@ -329,12 +346,13 @@ def _member_conflict(objects: _Objects, name: str, seg: Segment,
 def _grow(objects: _Objects, names: list[str], pending: list[Segment],
           segs_of: dict[str, list[Segment]], searches: list[SearchResult],
           new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
-          tick: Callable[[], None]) -> list[Segment]:
-    """Attach pending segments to the objects ``names`` until none joins (step 3)."""
+          tick: Callable[[], None], relay: bool) -> list[Segment]:
+    """Attach pending segments to the objects ``names`` until none joins (step 3); only
+    segments overlapping an object in time unless ``relay``."""
     for _ in range(MAX_ROUNDS):
         if not pending:
             break
-        pending, links = _score_links(objects, pending, names, new_id, replaced)
+        pending, links = _score_links(objects, pending, names, new_id, replaced, relay)
         links = {(i, j): w for (i, j), w in links.items()
                  if not _member_conflict(objects, names[j], pending[i], segs_of)}
         if not links:
@@ -409,7 +427,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
 
     new_id.n = len(segments)                             # type: ignore[attr-defined]
     pending = _grow(objects, anchored, list(segments), segs_of, searches, new_id, replaced,
-                    tick)
+                    tick, relay=False)
     discovered: list[str] = []
     unstartable: list[Segment] = []
     while True:
@@ -428,7 +446,10 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         segs_of[name] = [seed]
         discovered.append(name)
         pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
-                        replaced, tick)
+                        replaced, tick, relay=False)
+    pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
+                    replaced, tick, relay=True)
+    discovered = _stitch(objects, anchored, discovered, segs_of, searches)
     discovered = _relay_lone_objects(objects, declared, anchored, discovered, segs_of)
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
@@ -443,6 +464,79 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                      *_row_tables(rows, kinds, final, segment_object, clutter, angle_plots),
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names))
+
+
+def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
+            segs_of: dict[str, list[Segment]], searches: list[SearchResult]) -> list[str]:
+    """Relay between objects (step 5): a discovered object that lies before or after another
+    object in time (overlapping it by less than ``OVERLAP_SECONDS``, within
+    ``BRIDGE_SECONDS``) joins it when its rows within ``RELAY_WINDOW_SECONDS`` of the gap fit
+    that object's trajectory carried across it; the hypothesis search picks the best set of
+    joins (two objects overlapping in time never join the same one). Chains join up. Returns
+    the discovered objects left."""
+    names = [*anchored, *discovered]
+    spans = {k: _span(objects, k) for k in names if k in objects.tracks}
+    items = sorted((k for k in discovered if k in spans), key=lambda k: spans[k][0])
+    links: dict[tuple[int, int], float] = {}
+    for i, k in enumerate(items):
+        a0, a1 = spans[k]
+        for j, other in enumerate(names):
+            if other == k or other not in spans:
+                continue
+            b0, b1 = spans[other]
+            if overlaps(a0, a1, b0, b1) or a1 < b0 - BRIDGE_SECONDS or a0 > b1 + BRIDGE_SECONDS:
+                continue
+            if any(_member_conflict(objects, other, seg, segs_of) for seg in segs_of.get(k, [])):
+                continue
+            tr = objects.tracks[other]
+            after = a0 >= b0                         # k continues ``other``, else precedes it
+            gap = a0 - b1 if after else b0 - a1
+            window = max(RELAY_WINDOW_SECONDS, gap)
+            total, fit, n = 0.0, 0, 0
+            for seg in segs_of.get(k, []):
+                t = objects.rows[seg.sensor].t[seg.rows]
+                near = seg.rows[t <= a0 + window] if after else seg.rows[t >= a1 - window]
+                if near.size == 0:
+                    continue
+                batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+                scored = spread(near, SCORED_ROWS)
+                llr = segment_score(batch, scored, tr)[2]
+                total += float(llr.sum()) * near.size / scored.size
+                fit += int((llr > 0.0).sum())
+                n += llr.size
+            if total > 0.0 and n and fit / n >= MIN_FIT_SHARE:
+                links[(i, j)] = total
+    if not links:
+        return discovered
+    conflicts = [(a, b) for a in range(len(items)) for b in range(a + 1, len(items))
+                 if overlaps(*spans[items[a]], *spans[items[b]])
+                 or overlaps(*spans[items[b]], *spans[items[a]])]
+    result = best_hypotheses(len(items), links, conflicts)
+    searches.append(result)
+    root = {k: k for k in names}
+
+    def find(k: str) -> str:
+        while root[k] != k:
+            k = root[k]
+        return k
+
+    changed: set[str] = set()
+    for i, j in enumerate(result.best.choice):
+        if j < 0:
+            continue
+        a, b = find(items[i]), find(names[j])
+        if a == b:
+            continue
+        keep, gone = (b, a) if b in anchored or spans[b][0] <= spans[a][0] else (a, b)
+        if gone in anchored:
+            continue
+        root[gone] = keep
+        objects.members[keep].extend(objects.members.pop(gone))
+        segs_of.setdefault(keep, []).extend(segs_of.pop(gone, []))
+        changed.add(keep)
+    for k in {find(k) for k in changed}:
+        objects.estimate(k)
+    return [k for k in discovered if root[k] == k]
 
 
 def _span(objects: _Objects, key: str) -> tuple[float, float]:
