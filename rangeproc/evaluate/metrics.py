@@ -16,6 +16,7 @@ assigned to truth objects by position at every epoch, with GOSPA over time and i
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +119,8 @@ def _f(x: float) -> float | None:
 
 
 def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
-                 series_path: Path | None = None) -> dict[str, Any]:
+                 series_path: Path | None = None,
+                 observed: Mapping[str, tuple[float, float]] | None = None) -> dict[str, Any]:
     """Compare ``out_dir/fused.parquet`` with truth; JSON-serialisable result.
 
     Returns {"fused": path, "truth": path, "targets": {target_id: metrics}, "unmatched":
@@ -127,7 +129,8 @@ def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
     also "multi": :func:`rangeproc.evaluate.multi.summarise` with assignment cutoff ``cutoff``
     (m); then, if ``series_path`` is given, the per-epoch GOSPA table
     (:func:`rangeproc.evaluate.multi.gospa_series`) is written there as Parquet and
-    "multi"["gospa"]["series_file"] names it.
+    "multi"["gospa"]["series_file"] names it. ``observed``: truth id -> (first, last) time
+    (s) it was measured, for each object's ``coverage_observed``.
     """
     fused_path, truth_path = Path(out_dir) / "fused.parquet", Path(truth_path)
     fused = _read(fused_path, FUSED_COLUMNS)
@@ -157,7 +160,7 @@ def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
             fused[["e", "n", "u"]].to_numpy(float), truth["time"].to_numpy(float),
             _str_array(truth_ids), truth[["e", "n", "u"]].to_numpy(float), cutoff=cutoff,
             where=str(fused_path))
-        result["multi"] = summarise(ev)
+        result["multi"] = summarise(ev, observed)
         if series_path is not None:
             write_parquet(pd.DataFrame(gospa_series(ev)), series_path)
             result["multi"]["gospa"]["series_file"] = str(series_path)

@@ -28,6 +28,9 @@ Definitions (K evaluation epochs t_k, M truth objects, N fused objects, cutoff c
   epochs where both exist, assigned or not; assigned_rmse = RMS of d_i,gamma(i) over the epochs
   with any assigned object; coverage = (epochs with an assigned object) / (epochs it exists),
   i.e. the fraction of its span inside the fused time range with a fused object within c;
+  coverage_observed = the same over the epochs inside the span the object was observed
+  [first, last measurement of it] when those spans are given (``observed``): an object no
+  sensor saw yet cannot be covered;
   swaps = number of changes of the assigned fused id between consecutive assigned epochs
   (unassigned epochs in between ignored); fragmentation = number of assigned stretches - 1,
   where a run of more than ``FRAGMENT_GAP_EPOCHS`` unassigned epochs starts a new stretch.
@@ -38,6 +41,7 @@ Definitions (K evaluation epochs t_k, M truth objects, N fused objects, cutoff c
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -209,14 +213,20 @@ def _f(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _truth_summary(ev: MultiObjectEvaluation, i: int) -> dict[str, Any]:
+def _truth_summary(ev: MultiObjectEvaluation, i: int,
+                   observed: tuple[float, float] | None = None) -> dict[str, Any]:
     exists = np.isfinite(ev.truth_pos[:, i]).all(axis=1)
     a = ev.assigned[exists, i]
     n = int(exists.sum())
     out: dict[str, Any] = {"n_epochs": n, "best_match": None, "best_match_epochs": 0,
                            "best_match_rmse": None, "best_match_p95": None,
                            "assigned_epochs": 0, "assigned_rmse": None,
-                           "coverage": None, "swaps": 0, "fragmentation": 0}
+                           "coverage": None, "coverage_observed": None, "swaps": 0,
+                           "fragmentation": 0}
+    if observed is not None:
+        seen = exists & (ev.t >= observed[0]) & (ev.t <= observed[1])
+        if seen.any():
+            out["coverage_observed"] = float((ev.assigned[seen, i] >= 0).mean())
     if n == 0:
         return out
     ka = np.flatnonzero(a >= 0)          # assigned epochs, indices among the existing ones
@@ -253,9 +263,11 @@ def _fused_summary(ev: MultiObjectEvaluation, j: int) -> dict[str, Any]:
             "false_epochs": int(np.count_nonzero(own < 0))}
 
 
-def summarise(ev: MultiObjectEvaluation) -> dict[str, Any]:
+def summarise(ev: MultiObjectEvaluation,
+              observed: Mapping[str, tuple[float, float]] | None = None) -> dict[str, Any]:
     """JSON-ready summary of ``ev``: GOSPA statistics (m; parts in m^2), per truth object and
-    per fused object metrics (see the module docstring) and totals."""
+    per fused object metrics (see the module docstring) and totals. ``observed``: truth id ->
+    (first, last) time (s) it was measured, for ``coverage_observed``."""
     k = ev.t.size
     g = ev.gospa
     c2 = ev.cutoff**P / ALPHA
@@ -268,7 +280,8 @@ def summarise(ev: MultiObjectEvaluation) -> dict[str, Any]:
              "false_mean": _f(ev.false.mean()) if k else None,
              "n_missed_mean": _f(ev.missed.mean() / c2) if k else None,
              "n_false_mean": _f(ev.false.mean() / c2) if k else None}
-    truth = {tid: _truth_summary(ev, i) for i, tid in enumerate(ev.truth_ids)}
+    truth = {tid: _truth_summary(ev, i, (observed or {}).get(tid))
+             for i, tid in enumerate(ev.truth_ids)}
     fused = {fid: _fused_summary(ev, j) for j, fid in enumerate(ev.fused_ids)}
     cov = [m["coverage"] for m in truth.values() if m["coverage"] is not None]
     return {

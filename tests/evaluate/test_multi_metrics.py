@@ -134,6 +134,20 @@ def test_missed_object(tmp_path, cutoff):
     assert "T2      -" in format_report(m)
 
 
+def test_coverage_over_the_observed_span(tmp_path):
+    """An object first measured halfway through is covered over the half it was seen."""
+    t = _epochs(0, 100)
+    late = t[t >= T0 + 5.0]                      # T2 tracked from 5 s on, when first seen
+    m = _run(tmp_path, [_follow("O1", "T1", t), _follow("O2", "T2", late)], _truth(),
+             observed={"T2": (T0 + 5.0, T0 + 9.9), "T1": (T0, T0 + 9.9)})
+    r2, r1 = m["multi"]["truth"]["T2"], m["multi"]["truth"]["T1"]
+    assert r2["coverage"] == pytest.approx(0.5)
+    assert r2["coverage_observed"] == 1.0 and r1["coverage_observed"] == 1.0
+    m = _run(tmp_path, [_follow("O1", "T1", t)], _truth(), observed={"T2": (T0, T0 + 2.0)})
+    assert m["multi"]["truth"]["T2"]["coverage_observed"] == 0.0
+    assert m["multi"]["truth"]["T1"]["coverage_observed"] is None     # no span given
+
+
 def test_false_object(tmp_path):
     t = _epochs(0, 50)
     far = _follow("O9", "T1", t, offset=(0.0, -1000.0, 0.0))
