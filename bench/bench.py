@@ -22,10 +22,22 @@
    stage seconds (read, assemble, fuse, write, report), the fuse stage broken down by the
    functions it calls (edit, process-noise tuning, filter, smooth, residuals), the process
    wall time from interpreter start to exit, microseconds per measurement row, and memory.
+3. Several objects at scale (issue 9): simulates kind ``scale`` (``rangeproc simulate
+   --objects scale``: 10 objects, surveillance radar SR1 with a 4 s scan and 20 clutter plots
+   per scan, tracking radars R1-R3 at 20 Hz per track, GPS on four objects; ``--multi-duration``
+   s, cached in ``bench/data/`` like the sortie), runs the whole pipeline in a fresh subprocess
+   the same way (after a warm-up on a 60 s ``scale`` scenario; stage seconds include
+   ``associate``), and prints its rows, wall time, microseconds per row and their ratio to the
+   single-object pipeline's (from this run, or from the previous results file when
+   ``--skip-pipeline``), against the issue's < 3x. Then scores the output against truth.csv
+   with ``rangeproc.evaluate`` (several objects: per truth object RMSE, coverage, identity
+   swaps; GOSPA), so that the speed is not bought with wrong answers.
 
 Writes every number plus machine info to ``bench/results.json`` (and prints the previous
 file's headline numbers, if there was one, for comparison). ``--quick`` is the CI size
-(a 300 s sortie at the simulator's own rates unless ``--rows`` or ``--rate-scale`` is given).
+(a 300 s sortie at the simulator's own rates unless ``--rows`` or ``--rate-scale`` is given,
+and a 300 s ``scale`` scenario). ``--skip-kernel``, ``--skip-pipeline`` and ``--skip-multi``
+each leave out one of the three parts.
 Nothing here asserts a time: the acceptance lines print PASS/FAIL for the lead to read.
 """
 from __future__ import annotations
@@ -38,6 +50,7 @@ import json
 import os
 import platform
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -57,12 +70,16 @@ import peers  # noqa: E402  (bench/ is put on sys.path just above)
 TARGET_US, TARGET_FP, TARGET_SS, TARGET_AGREE = 2.5, 25.0, 500.0, 1e-8
 TARGET_UKF_US, TARGET_UKF_FP = 5.0, 150.0
 TARGET_WALL_S, TARGET_PEAK_GB, TARGET_ROWS = 60.0, 3.0, 2_000_000
+#: several objects at scale: simulator kind, scenario length (s), limit on (us per row) /
+#: (single-object pipeline's us per row), GOSPA / assignment cutoff (m)
+MULTI_KIND, MULTI_DURATION_S, TARGET_MULTI_RATIO, MULTI_CUTOFF_M = "scale", 1800.0, 3.0, 50.0
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true",
-                    help="CI size: 300 s sortie, 5,000 kernel rows, 500 Stone Soup rows")
+                    help="CI size: 300 s sortie, 5,000 kernel rows, 500 Stone Soup rows, "
+                         "300 s several-objects scenario")
     ap.add_argument("--duration", type=float, help="sortie length (s); default 3600")
     ap.add_argument("--seed", type=int, default=1, help="simulator and kernel-data seed")
     ap.add_argument("--rows", type=int,
@@ -75,8 +92,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--reps", type=int, help="timed rangeproc kernel calls (median); 5")
     ap.add_argument("--peer-reps", type=int,
                     help="timed FilterPy / Stone Soup runs (median); default 3 (quick: 1)")
-    ap.add_argument("--skip-kernel", action="store_true", help="pipeline benchmark only")
-    ap.add_argument("--skip-pipeline", action="store_true", help="kernel benchmark only")
+    ap.add_argument("--multi-duration", type=float,
+                    help=f"length (s) of the several-objects '{MULTI_KIND}' scenario; default "
+                         f"{MULTI_DURATION_S:g} (quick: 300)")
+    ap.add_argument("--skip-kernel", action="store_true",
+                    help="leave out the kernel benchmark (part 1)")
+    ap.add_argument("--skip-pipeline", action="store_true",
+                    help="leave out the single-object pipeline benchmark (part 2); the "
+                         "several-objects one still runs (add --skip-multi for the kernels "
+                         "only) and takes its single-object reference from --out")
+    ap.add_argument("--skip-multi", action="store_true",
+                    help="leave out the several-objects benchmark (part 3)")
     ap.add_argument("--out", type=Path, default=BENCH / "results.json")
     ap.add_argument("--pipeline-only", type=Path, metavar="CONFIG", help=argparse.SUPPRESS)
     ap.add_argument("--json-out", type=Path, help=argparse.SUPPRESS)
@@ -84,6 +110,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     a = ap.parse_args(argv)
     quick = a.quick
     a.duration = a.duration or (300.0 if quick else 3600.0)
+    a.multi_duration = a.multi_duration or (300.0 if quick else MULTI_DURATION_S)
     if a.rows is None and a.rate_scale is None:
         a.rows = None if quick else TARGET_ROWS
     a.kernel_steps = a.kernel_steps or (5000 if quick else 20000)
@@ -271,35 +298,45 @@ def choose_rate_scale(a: argparse.Namespace) -> tuple[float, int | None]:
 
 
 def file_rows(folder: Path) -> dict[str, int]:
-    """Data rows of each sensor file in a sortie folder (CSV lines minus the header)."""
+    """Data rows of each sensor file in a sortie folder (CSV lines minus the header; the
+    truth files truth.csv, truth_association.csv left out)."""
     import pyarrow.parquet as pq
     rows = {}
     for f in sorted(folder.iterdir()):
         if f.suffix == ".parquet":
             rows[f.stem] = pq.ParquetFile(f).metadata.num_rows
-        elif f.suffix == ".csv" and f.name != "truth.csv":
+        elif f.suffix == ".csv" and not f.name.startswith("truth"):
             with open(f, "rb") as fh:
                 rows[f.stem] = sum(chunk.count(b"\n") for chunk in iter(
                     functools.partial(fh.read, 1 << 24), b"")) - 1
     return rows
 
 
-def scenario(seed: int, duration: float, rate_scale: float = 1.0
+def scenario(seed: int, duration: float, rate_scale: float = 1.0, objects: str | None = None
              ) -> tuple[Path, float | None]:
-    """Simulated sortie in bench/data/, reused when its stamp matches; (config, simulate s)."""
+    """Simulated sortie in bench/data/, reused when its stamp matches; (config, simulate s).
+    ``objects``: a multi-object kind (``rangeproc simulate --objects``) instead of the
+    single-object sortie (rate_scale must then be 1)."""
     src = hashlib.sha256()
     for f in sorted((ROOT / "rangeproc" / "simulate").glob("*.py")):
         src.update(f.read_bytes())
     stamp = {"seed": seed, "duration": duration, "rate_scale": rate_scale, "sensors": "all",
              "simulator_sha256": src.hexdigest()}
+    if objects is not None:
+        stamp["objects"] = objects
     scaled = "" if rate_scale == 1.0 else f"_x{rate_scale:g}"
-    folder = BENCH / "data" / f"sortie_seed{seed}_{duration:g}s{scaled}"
+    folder = BENCH / "data" / f"{objects or 'sortie'}_seed{seed}_{duration:g}s{scaled}"
     cfg, stamp_file = folder / "scenario.toml", folder / "stamp.json"
     if cfg.exists() and stamp_file.exists() and json.loads(stamp_file.read_text()) == stamp:
         return cfg, None
-    from rangeproc.simulate import simulate_scenario
     t0 = time.perf_counter()
-    cfg = simulate_scenario(folder, seed=seed, duration=duration, rate_scale=rate_scale)
+    if objects is not None:
+        from rangeproc.simulate import simulate_multi
+        shutil.rmtree(folder, ignore_errors=True)  # a stale sensor file would be read too
+        cfg = simulate_multi(folder, kind=objects, seed=seed, duration=duration)
+    else:
+        from rangeproc.simulate import simulate_scenario
+        cfg = simulate_scenario(folder, seed=seed, duration=duration, rate_scale=rate_scale)
     stamp_file.write_text(json.dumps(stamp))
     return cfg, time.perf_counter() - t0
 
@@ -395,17 +432,74 @@ def pipeline_bench(a: argparse.Namespace) -> dict:
               + (f" ({base:,} rows at x1, target {a.rows:,})" if base else "")
               + f" -> {sum(written.values()):,} rows written", flush=True)
         wall, r = _pipeline_subprocess(cfg, tmp)
-    inputs = [p for p in cfg.parent.iterdir() if p.suffix in (".csv", ".parquet")
-              and p.name != "truth.csv"]
-    n = sum(r["rows"].values())
-    extra = r["peak_rss_bytes"] - r["baseline_rss_bytes"]
     return {"config": str(cfg.relative_to(ROOT)), "duration_s": a.duration,
             "rate_scale": scale, "probe_rows_scale1": base, "target_rows_requested": a.rows,
-            "file_rows": written, "simulate_s": sim_s, "warmup_wall_s": warm_s,
+            **pipeline_record(cfg, written, sim_s, warm_s, wall, r)}
+
+
+def pipeline_record(cfg: Path, written: dict[str, int], sim_s: float | None, warm_s: float,
+                    wall: float, r: dict) -> dict:
+    """The figures of one timed pipeline subprocess (``r`` from :func:`pipeline_child`, wall
+    s) on the scenario ``cfg``: rows, input size, microseconds per row (run() and process
+    wall), memory per row."""
+    inputs = [p for p in cfg.parent.iterdir() if p.suffix in (".csv", ".parquet")
+              and not p.name.startswith("truth")]
+    n = sum(r["rows"].values())
+    extra = r["peak_rss_bytes"] - r["baseline_rss_bytes"]
+    return {"file_rows": written, "simulate_s": sim_s, "warmup_wall_s": warm_s,
             "process_wall_s": wall, **r,
             "total_rows": n, "input_bytes": sum(p.stat().st_size for p in inputs),
             "us_per_meas_run": r["run_s"] / n * 1e6, "us_per_meas_wall": wall / n * 1e6,
             "peak_above_baseline_bytes_per_meas": extra / n}
+
+
+def single_reference(res: dict, previous: Path) -> dict | None:
+    """The single-object pipeline figures the several-objects run is compared with: this
+    run's (``res["pipeline"]``), else the previous results file's pipeline (or the reference
+    that file's own several-objects run used); None when there is none."""
+    keys = ("us_per_meas_wall", "us_per_meas_run", "total_rows", "duration_s",
+            "process_wall_s", "run_s")
+    if "pipeline" in res:
+        return {"source": "this run", **{k: res["pipeline"][k] for k in keys}}
+    try:
+        old = json.loads(previous.read_text())
+    except (OSError, ValueError):
+        return None
+    when = old.get("machine", {}).get("timestamp", "?")
+    if "pipeline" in old:
+        return {"source": f"{previous.name} of {when}", **{k: old["pipeline"][k] for k in keys}}
+    ref = old.get("multi", {}).get("single_object_reference")
+    return dict(ref) if ref else None
+
+
+def multi_bench(a: argparse.Namespace, reference: dict | None) -> dict:
+    """Several objects at scale: warm-up on a 60 s ``scale`` scenario (its tracking code is
+    compiled too), the timed pipeline subprocess on the ``--multi-duration`` one, then the
+    multi-object score against truth.csv (in this process, not timed with the run)."""
+    from rangeproc.evaluate import evaluate_run
+    with tempfile.TemporaryDirectory() as folder:
+        tmp = Path(folder) / "pipeline.json"
+        warm_s, _ = _pipeline_subprocess(scenario(a.seed, 60.0, objects=MULTI_KIND)[0], tmp)
+        cfg, sim_s = scenario(a.seed, a.multi_duration, objects=MULTI_KIND)
+        written = file_rows(cfg.parent)
+        sim = "reused" if sim_s is None else f"simulated in {sim_s:.1f} s"
+        print(f"bench: several objects {cfg.parent.name} ({sim}) -> "
+              f"{sum(written.values()):,} rows written", flush=True)
+        wall, r = _pipeline_subprocess(cfg, tmp)
+    rec = {"config": str(cfg.relative_to(ROOT)), "kind": MULTI_KIND,
+           "duration_s": a.multi_duration, "rate_scale": 1.0,
+           **pipeline_record(cfg, written, sim_s, warm_s, wall, r)}
+    t0 = time.perf_counter()
+    metrics = evaluate_run(cfg.parent / "out", cfg.parent / "truth.csv", cutoff=MULTI_CUTOFF_M)
+    rec["evaluate_s"] = time.perf_counter() - t0
+    multi = metrics["multi"]
+    rec["score"] = {k: multi[k] for k in ("cutoff_m", "n_epochs", "gospa", "truth", "fused",
+                                          "totals")}
+    rec["single_object_reference"] = reference
+    if reference:
+        rec["ratio_wall"] = rec["us_per_meas_wall"] / reference["us_per_meas_wall"]
+        rec["ratio_run"] = rec["us_per_meas_run"] / reference["us_per_meas_run"]
+    return rec
 
 
 # ------------------------------------------------------------------------------- output
@@ -527,10 +621,11 @@ def print_ukf(u: dict) -> None:
           f"{len(u['rangeproc_times_s'])} calls: {us['rangeproc']:.2f} us/meas")
 
 
-def print_pipeline(p: dict) -> None:
+def print_pipeline(p: dict, title: str = "Pipeline") -> None:
     sim = "reused" if p["simulate_s"] is None else f"simulated in {p['simulate_s']:.1f} s"
     rows = ", ".join(f"{k} {v:,}" for k, v in p["rows"].items())
-    print(f"\nPipeline: {p['config']} ({p['duration_s']:g} s sortie at x{p['rate_scale']:g} "
+    what = "scenario" if "kind" in p else "sortie"
+    print(f"\n{title}: {p['config']} ({p['duration_s']:g} s {what} at x{p['rate_scale']:g} "
           f"sample rates, {sim}; warm-up run "
           f"{p['warmup_wall_s']:.1f} s)")
     print(f"rows read {p['total_rows']:,} ({rows}); target measurement rows (non-INS) "
@@ -549,6 +644,33 @@ def print_pipeline(p: dict) -> None:
     print(f"peak RSS {p['peak_rss_bytes'] / 2**20:.0f} MiB (after imports "
           f"{p['baseline_rss_bytes'] / 2**20:.0f} MiB; "
           f"{p['peak_above_baseline_bytes_per_meas']:.0f} B per row above that)")
+
+
+def multi_ratio_line(m: dict) -> str:
+    """'rows, wall, us/row vs the single-object run's us/row = ratio' of the several-objects
+    record ``m`` (no ratio when there is no single-object reference)."""
+    ref = m.get("single_object_reference")
+    head = (f"{m['total_rows']:,} rows, wall {m['process_wall_s']:.1f} s, "
+            f"{m['us_per_meas_wall']:.1f} us/row")
+    if not ref:
+        return head + "; no single-object pipeline figure to compare with (run without " \
+                      "--skip-pipeline once)"
+    return (head + f" vs single object {ref['us_per_meas_wall']:.1f} us/row "
+            f"({ref['total_rows']:,} rows, {ref['duration_s']:g} s sortie, {ref['source']}): "
+            f"{m['ratio_wall']:.2f}x")
+
+
+def print_multi(m: dict) -> None:
+    """The several-objects run: the pipeline table, the ratio line, the multi-object score."""
+    from rangeproc.evaluate.multi import format_multi
+    print_pipeline(m, f"Several objects ({m['kind']})")
+    print(f"per row: {multi_ratio_line(m)}"
+          + (f"; run() alone {m['us_per_meas_run']:.1f} vs "
+             f"{m['single_object_reference']['us_per_meas_run']:.1f} us/row = "
+             f"{m['ratio_run']:.2f}x" if m.get("single_object_reference") else ""))
+    print(f"Score against truth.csv (rangeproc.evaluate, {m['evaluate_s']:.1f} s; RMSE of the "
+          "best-matching output object):")
+    print(format_multi(m["score"]))
 
 
 #: Issue figures of the further filters: (name, ratio key, the row it is relative to, limit
@@ -606,6 +728,20 @@ def print_acceptance(res: dict) -> None:
               f"{p['total_rows'] / p['duration_s'] * 3600 / 1e6:.2f} M/h "
               f"{_ok(p['total_rows'] / p['duration_s'] * 3600 >= 0.9 * TARGET_ROWS)}"
               f" (sample rates x{p['rate_scale']:g})")
+    m = res.get("multi")
+    if m:
+        full = m["duration_s"] >= MULTI_DURATION_S
+        verdict = ("n/a" if "ratio_wall" not in m else
+                   _ok(m["ratio_wall"] < TARGET_MULTI_RATIO) if full else
+                   f"n/a (not the {MULTI_DURATION_S:g} s scenario)")
+        tot = m["score"]["totals"]
+        print(f"  several objects ({m['kind']}, {m['duration_s']:g} s, "
+              f"{tot['n_truth']} objects) < {TARGET_MULTI_RATIO:g}x the single-object us/row: "
+              f"{multi_ratio_line(m)}  {verdict}")
+        g = m["score"]["gospa"]["mean"]
+        print(f"    (score: GOSPA mean {g:.2f} m, coverage mean {tot['coverage_mean']:.3f}, "
+              f"{tot['swaps']} swaps, {tot['n_fused']} output objects; no issue figure)"
+              if g is not None else "    (score: no epochs)")
 
 
 def print_previous(path: Path, res: dict) -> None:
@@ -629,6 +765,10 @@ def print_previous(path: Path, res: dict) -> None:
                      f"{res['pipeline']['process_wall_s']:.1f} s "
                      f"({old['pipeline']['duration_s']:g} -> {res['pipeline']['duration_s']:g}"
                      " s sortie)")
+    if "multi" in old and "multi" in res:
+        parts.append(f"several objects {old['multi']['us_per_meas_wall']:.1f} -> "
+                     f"{res['multi']['us_per_meas_wall']:.1f} us/row "
+                     f"({old['multi']['duration_s']:g} -> {res['multi']['duration_s']:g} s)")
     if parts:
         print(f"\nvs previous {path.name} ({when}): " + "; ".join(parts))
 
@@ -643,7 +783,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     res: dict = {"machine": machine(), "params": {
         "quick": a.quick, "seed": a.seed, "duration_s": a.duration, "rows": a.rows,
-        "rate_scale": a.rate_scale,
+        "rate_scale": a.rate_scale, "multi_duration_s": a.multi_duration,
         "kernel_steps": a.kernel_steps, "stonesoup_steps": a.stonesoup_steps, "reps": a.reps,
         "peer_reps": a.peer_reps}}
     if not a.skip_kernel:
@@ -652,6 +792,9 @@ def main(argv: list[str] | None = None) -> None:
     if not a.skip_pipeline:
         res["pipeline"] = pipeline_bench(a)
         print_pipeline(res["pipeline"])
+    if not a.skip_multi:
+        res["multi"] = multi_bench(a, single_reference(res, a.out))
+        print_multi(res["multi"])
     print_acceptance(res)
     print_previous(a.out, res)
     a.out.write_text(json.dumps(res, indent=2) + "\n")

@@ -192,11 +192,14 @@ def run_cmd(config: Path, quiet: bool) -> None:
                    "units. Written to truth_calibration.json.")
 @click.option("--objects", "objects", default=None, metavar="KIND",
               help="Several objects instead of one: crossing, formation, lock-jump, "
-                   "operator-switch, surveillance or mixed. Objects with GPS are declared "
+                   "operator-switch, surveillance, mixed or scale (issue 9's benchmark: 10 "
+                   "objects, SR1, tracking radars R1-R3, GPS on four; e.g. --duration 1800). "
+                   "Objects with GPS are declared "
                    "targets, the others are not; also writes truth_association.csv and "
                    "truth_events.json. Not combined with --sensors, --rate-scale, --faults.")
 @click.option("--n-objects", type=int, default=None,
-              help="With --objects: how many objects (default: drawn within the kind's range).")
+              help="With --objects: how many objects (default: drawn within the kind's range; "
+                   "scale: 10).")
 @quiet_option
 @library_errors
 def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_scale: float,

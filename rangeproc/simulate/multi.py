@@ -12,7 +12,12 @@ Kinds (object counts): ``crossing`` (2-3) aircraft crossing within a few hundred
 ``formation`` (2-4) 100-300 m apart, splitting mid-flight; ``lock-jump`` (2-3) a radar track
 that jumps to another object at a close pass; ``operator-switch`` (2-3) a theodolite operator
 moving to another object; ``surveillance`` (3-5) a rotating radar's plots with clutter;
-``mixed`` (2-5) all of these at once, with a ship radar and MISTRAM.
+``mixed`` (2-5) all of these at once, with a ship radar and MISTRAM; ``scale`` (5-20, 10
+unless ``n_objects`` is given) the several-objects benchmark scenario of issue 9 (run it with
+``duration=1800``): the surveillance radar SR1 (a scan every 4 s, 20 clutter plots per scan),
+three fixed tracking radars R1, R2, R3, each with two tracks at a time that may be handed over
+to another object mid-flight (so each radar follows 2-4 objects), and GPS on exactly four
+objects (T1..T4; the others U1.. are undeclared).
 
 Every kind has GPS on some objects only, a fixed tracking radar R1 (20 Hz per track, with
 track_id), missed detections, noise, wild points and empty cells as in the single-object
@@ -49,7 +54,11 @@ log = logging.getLogger(__name__)
 #: kind -> (fewest, most) objects
 KINDS: dict[str, tuple[int, int]] = {
     "crossing": (2, 3), "formation": (2, 4), "lock-jump": (2, 3), "operator-switch": (2, 3),
-    "surveillance": (3, 5), "mixed": (2, 5)}
+    "surveillance": (3, 5), "mixed": (2, 5), "scale": (5, 20)}
+#: kind -> object count when ``n_objects`` is not given (other kinds: drawn within KINDS)
+DEFAULT_OBJECTS: dict[str, int] = {"scale": 10}
+SCALE_GPS = 4  #: objects carrying GPS in kind ``scale``
+SCALE_RADARS, SCALE_TRACKS = ("R1", "R2", "R3"), 2  #: its tracking radars, tracks per radar
 MIN_DURATION = 30.0  #: s
 
 
@@ -83,12 +92,14 @@ class Draw:
 @dataclass(frozen=True, slots=True)
 class Layout:
     """A kind's drawing: trajectories (index = object), the sensors that see objects, events
-    (object indices under ``objects``) and the objects that must carry GPS."""
+    (object indices under ``objects``) and the objects that must carry GPS; ``gps_only``: the
+    GPS carriers exactly (None: ``gps_must`` plus others drawn by :func:`gps_carriers`)."""
 
     flights: list[Trajectory]
     sensors: list[ms.Sensor]
     events: list[dict[str, Any]]
     gps_must: tuple[int, ...] = ()
+    gps_only: tuple[int, ...] | None = None
 
 
 # --------------------------------------------------------------------------------------------
@@ -99,16 +110,16 @@ def _single(start: float, end: float, obj: int, track_id: int) -> ms.TrackPlan:
     return ms.TrackPlan((ms.Piece(start, end, obj, track_id),))
 
 
-def tracking_radar(d: Draw, tracks: list[ms.TrackPlan]) -> ms.SiteSensor:
-    """R1: fixed tracking radar 1.5-6 km from the origin, 20 Hz per track, range 5-10 m,
-    angles 0.2-1 mrad, range rate (0.05-0.2 m/s) on half the scenarios."""
+def tracking_radar(d: Draw, tracks: list[ms.TrackPlan], sid: str = "R1") -> ms.SiteSensor:
+    """R1 (or ``sid``): fixed tracking radar 1.5-6 km from the origin, 20 Hz per track, range
+    5-10 m, angles 0.2-1 mrad, range rate (0.05-0.2 m/s) on half the scenarios."""
     g = d.g
     site = _geo_at(d.origin, *_polar(g, 1.5e3, 6e3), d.origin.height + g.uniform(-30, 300))
     sigma = {"range": _r(g.uniform(5, 10)), "azimuth": _r(g.uniform(0.2, 1) * _MRAD, 6),
              "elevation": _r(g.uniform(0.2, 1) * _MRAD, 6)}
     if g.random() < 0.5:
         sigma["range_rate"] = _r(g.uniform(0.05, 0.2), 3)
-    return ms.SiteSensor("R1", "radar", "R1.csv", site, sigma, "deg", 20.0, tuple(tracks),
+    return ms.SiteSensor(sid, "radar", f"{sid}.csv", site, sigma, "deg", 20.0, tuple(tracks),
                          wild_fraction=float(g.uniform(0.005, 0.01)),
                          n_missing=int(g.integers(3, 15)))
 
@@ -252,6 +263,38 @@ def _mixed(d: Draw, n: int) -> Layout:
     return Layout(flights, sensors, events)
 
 
+def _scale(d: Draw, n: int) -> Layout:
+    """Issue 9's benchmark scenario: n independent flights, SR1, then R1..R3 (see
+    :func:`handover_tracks`), then exactly ``SCALE_GPS`` GPS carriers."""
+    flights = [plan_trajectory(r, d.span, d.t0) for r in d.rngs]
+    sensors: list[ms.Sensor] = [surveillance_radar(d)]
+    sensors += [tracking_radar(d, handover_tracks(d, n), sid) for sid in SCALE_RADARS]
+    carriers = tuple(sorted(int(k) for k in d.g.choice(n, size=SCALE_GPS, replace=False)))
+    return Layout(flights, sensors, [], gps_only=carriers)
+
+
+def handover_tracks(d: Draw, n: int) -> list[ms.TrackPlan]:
+    """``SCALE_TRACKS`` tracks of one radar on distinct objects (of n >= 2 SCALE_TRACKS),
+    from early in the flight to its end. Track 0 is always handed over, the others half the
+    time: at 30-70 % of the flight, after a 1-5 s slew, the track moves to an object the radar
+    has not followed, under the next track_id or (half the time) the same one."""
+    objs = [int(k) for k in d.g.choice(n, size=2 * SCALE_TRACKS, replace=False)]
+    base = track_base(d)
+    plans = []
+    for c in range(SCALE_TRACKS):
+        tid = base + 2 * c
+        start = d.at(0.0, 0.05)
+        if c == 0 or d.g.random() < 0.5:
+            t_h = d.at(0.3, 0.7)
+            slew = float(d.g.uniform(1.0, 5.0))
+            new = tid + 1 if d.g.random() < 0.5 else tid
+            plans.append(ms.TrackPlan((ms.Piece(start, t_h, objs[2 * c], tid),
+                                       ms.Piece(t_h + slew, d.end, objs[2 * c + 1], new))))
+        else:
+            plans.append(_single(start, d.end, objs[2 * c], tid))
+    return plans
+
+
 def ship_sensors(d: Draw, obj: int) -> list[ms.Sensor]:
     """S1 (ship radar, 10 Hz, one track on ``obj``) and its SHIP_INS (50 Hz)."""
     g = d.g
@@ -270,7 +313,8 @@ def ship_sensors(d: Draw, obj: int) -> list[ms.Sensor]:
 
 DRAWERS: dict[str, Callable[[Draw, int], Layout]] = {
     "crossing": _crossing, "formation": _formation, "lock-jump": _lock_jump,
-    "operator-switch": _operator_switch, "surveillance": _surveillance, "mixed": _mixed}
+    "operator-switch": _operator_switch, "surveillance": _surveillance, "mixed": _mixed,
+    "scale": _scale}
 
 
 # --------------------------------------------------------------------------------------------
@@ -302,10 +346,14 @@ def draw_multi(kind: str, seed: int, duration: float, n_objects: int | None = No
     iso = seed % 2 == 0
     t0 = round(float((_ISO_EPOCH if iso else 345600.0) + g.uniform(0, 7200)), 2)
     lo, hi = KINDS[kind]
-    n = int(n_objects) if n_objects is not None else int(g.integers(lo, hi + 1))
+    if n_objects is not None:
+        n = int(n_objects)
+    else:
+        n = DEFAULT_OBJECTS[kind] if kind in DEFAULT_OBJECTS else int(g.integers(lo, hi + 1))
     d = Draw(g, g_flights.spawn(n), origin, t0, float(duration), int(seed))
     layout = DRAWERS[kind](d, n)
-    carriers = gps_carriers(g, n, layout.gps_must)
+    carriers = (list(layout.gps_only) if layout.gps_only is not None
+                else gps_carriers(g, n, layout.gps_must))
     ids = object_ids(n, carriers)
     sensors = track_unseen(d, list(layout.sensors), carriers, n)
     sensors += [gps_receiver(d, f"G{i + 1}", k) for i, k in enumerate(carriers)]
@@ -403,8 +451,9 @@ def simulate_multi(out_dir: Path, *, kind: str, seed: int, duration: float = 120
     """Write multi-object scenario ``kind`` (see :data:`KINDS`) into out_dir; return the config.
 
     duration: seconds of flight (>= 30). n_objects: how many objects (default: drawn within
-    the kind's range). noise=False writes exact measurements (no noise, wild points, empty
-    cells or clutter-free changes: clutter, missed detections and gaps are kept) for tests.
+    the kind's range; kind ``scale``: 10). noise=False writes exact measurements (no noise,
+    wild points, empty cells or clutter-free changes: clutter, missed detections and gaps are
+    kept) for tests.
     Writes the sensor files, scenario.toml, truth.csv, truth_association.csv and
     truth_events.json. A sensor that sees nothing (no rows) is left out.
     """

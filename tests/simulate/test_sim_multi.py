@@ -28,7 +28,7 @@ from geo_oracle import ecef, enu_basis
 
 DUR, SEEDS = 90.0, (3, 4)  # odd seeds: GPS seconds of week; even: ISO GPS stamps
 TO_RAD = {"deg": math.pi / 180.0, "rad": 1.0, "mil": 2.0 * math.pi / 6400.0}
-KINDS = list(MULTI_KINDS)
+KINDS = [k for k in MULTI_KINDS if k != "scale"]  # scale: test_simulate_scale.py
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
