@@ -206,7 +206,6 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         rows = assemble_all(cfg, frame, logs, tick)
     settings = estimator_settings(cfg)
     sensor_ids = tuple(s.id for s in cfg.sensors)
-    index = {sid: i for i, sid in enumerate(sensor_ids)}
     kinds = {s.id: s.kind for s in cfg.sensors}
     tracks, residuals, target_summary = [], [], {}
     sensor_summary: dict[str, dict] = {

@@ -110,7 +110,8 @@ def test_a_long_gap_splits_the_output_into_spans(scenario, cli, explain) -> None
     assert len(spans) == 2 and spans[1][0] - spans[0][1] > 60.0
     fused = pd.read_parquet(scenario / "out" / "fused.parquet")
     inside = (fused.time > spans[0][1] + 1.0) & (fused.time < spans[1][0] - 1.0)
-    assert inside.sum() > 600 and fused.bridged[inside].all()           # the gap is bridged (fusion.bridge), marked
+    # the gap is bridged (fusion.bridge), and marked
+    assert inside.sum() > 600 and fused.bridged[inside].all()
     assert (fused.n_sensors[inside] == 0).all()
     assert len(fused) < 10.0 * (spans[1][1] - spans[0][0]) + 2   # bounded by the time span
 

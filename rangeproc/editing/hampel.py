@@ -11,7 +11,8 @@ tracked object moves, so two things are added to the textbook form:
   ``s = max(1, half_width // 2)`` samples apart: an isolated wild value spoils two chords and a
   run of wild values ``s`` of them, while the chord's noise is ``s`` times smaller than that
   of consecutive differences (at 20 Hz, consecutive differences alone would leave a slope
-  error that inflates the MAD several fold). Curvature left in the window inflates the MAD, never the deviation of a good value
+  error that inflates the MAD several fold). Curvature left in the window inflates the MAD, never
+  the deviation of a good value
   alone, so a hard turn sampled slowly is not edited.
 * **A floor on the robust sigma**: the series' noise seen by its third differences
   (``1.4826 MAD(d3 x) / sqrt(20)``, free of any quadratic trend and of wild values as long as

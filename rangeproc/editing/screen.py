@@ -2,7 +2,8 @@
 
 Order: time stamps (``editing.timecheck``: beyond the representable range, repeated stamps of
 GPS/INS, isolated far stamps), then physical limits and impossible jumps
-(``editing.limits``), then the Hampel pre-edit of wild values (``editing.hampel``), then the cross-sensor time overlap (a sensor on the wrong time scale is
+(``editing.limits``), then the Hampel pre-edit of wild values (``editing.hampel``), then the
+cross-sensor time overlap (a sensor on the wrong time scale is
 refused). Every removed row or component goes into the run's :class:`EditRecord`.
 """
 from __future__ import annotations

@@ -9,8 +9,9 @@ state of the constant-acceleration motion given both ends: at an epoch t inside 
 ``x_f = F(t - t_a) x_a``, ``P_f = F P_a Fᵀ + Q(t - t_a)``, and the backward prediction from
 the first state of the later span, ``x_r = F(t - t_b) x_b``,
 ``P_r = F(t - t_b) (P_b + Q(t_b - t)) F(t - t_b)ᵀ`` (the later state's likelihood carried back
-through the motion and its noise), are combined in information form: ``P = (P_f⁻¹ + P_r⁻¹)⁻¹``, ``x = P (P_f⁻¹ x_f + P_r⁻¹ x_r)``
-(the two-filter smoother across a gap without data; the spans' estimates are independent).
+through the motion and its noise), are combined in information form:
+``P = (P_f⁻¹ + P_r⁻¹)⁻¹``, ``x = P (P_f⁻¹ x_f + P_r⁻¹ x_r)`` (the two-filter smoother
+across a gap without data; the spans' estimates are independent).
 ``Q`` is the white-jerk noise with the larger of the two ends' process noise, so the
 uncertainty grows towards the middle of the gap as the motion model says it must. Gaps
 longer than ``max_seconds`` are left empty (an object seen again hours later is not drawn
