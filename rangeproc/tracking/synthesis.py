@@ -449,7 +449,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                         replaced, tick, relay=False)
     pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
                     replaced, tick, relay=True)
-    discovered = _stitch(objects, anchored, discovered, segs_of, searches)
+    discovered = _stitch(objects, anchored, discovered, segs_of)
     discovered = _relay_lone_objects(objects, declared, anchored, discovered, segs_of)
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
@@ -467,52 +467,34 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
 
 
 def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
-            segs_of: dict[str, list[Segment]], searches: list[SearchResult]) -> list[str]:
+            segs_of: dict[str, list[Segment]]) -> list[str]:
     """Relay between objects (step 5): a discovered object that lies before or after another
     object in time (overlapping it by less than ``OVERLAP_SECONDS``, within
     ``BRIDGE_SECONDS``) joins it when its rows within ``RELAY_WINDOW_SECONDS`` of the gap fit
-    that object's trajectory carried across it; the hypothesis search picks the best set of
-    joins (two objects overlapping in time never join the same one). Chains join up. Returns
-    the discovered objects left."""
+    that object's trajectory carried across it (positive score, ``MIN_FIT_SHARE`` of the
+    rows). Joins are made best score first, each only when the two groups hold no segments of
+    one sensor overlapping in time (greedy stitching: where a formation splits, the better
+    continuation takes the track and the other one is then excluded). Returns the discovered
+    objects left."""
     names = [*anchored, *discovered]
     spans = {k: _span(objects, k) for k in names if k in objects.tracks}
-    items = sorted((k for k in discovered if k in spans), key=lambda k: spans[k][0])
-    links: dict[tuple[int, int], float] = {}
-    for i, k in enumerate(items):
+    pair_score: dict[tuple[str, str], float] = {}
+    for k in discovered:
+        if k not in spans:
+            continue
         a0, a1 = spans[k]
-        for j, other in enumerate(names):
+        for other in names:
             if other == k or other not in spans:
                 continue
             b0, b1 = spans[other]
             if overlaps(a0, a1, b0, b1) or a1 < b0 - BRIDGE_SECONDS or a0 > b1 + BRIDGE_SECONDS:
                 continue
-            if any(_member_conflict(objects, other, seg, segs_of) for seg in segs_of.get(k, [])):
-                continue
-            tr = objects.tracks[other]
-            after = a0 >= b0                         # k continues ``other``, else precedes it
-            gap = a0 - b1 if after else b0 - a1
-            window = max(RELAY_WINDOW_SECONDS, gap)
-            total, fit, n = 0.0, 0, 0
-            for seg in segs_of.get(k, []):
-                t = objects.rows[seg.sensor].t[seg.rows]
-                near = seg.rows[t <= a0 + window] if after else seg.rows[t >= a1 - window]
-                if near.size == 0:
-                    continue
-                batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
-                scored = spread(near, SCORED_ROWS)
-                llr = segment_score(batch, scored, tr)[2]
-                total += float(llr.sum()) * near.size / scored.size
-                fit += int((llr > 0.0).sum())
-                n += llr.size
-            if total > 0.0 and n and fit / n >= MIN_FIT_SHARE:
-                links[(i, j)] = total
-    if not links:
-        return discovered
-    conflicts = [(a, b) for a in range(len(items)) for b in range(a + 1, len(items))
-                 if overlaps(*spans[items[a]], *spans[items[b]])
-                 or overlaps(*spans[items[b]], *spans[items[a]])]
-    result = best_hypotheses(len(items), links, conflicts)
-    searches.append(result)
+            score = _relay_score(objects, segs_of.get(k, []), objects.tracks[other],
+                                 after=a0 >= b0, gap=a0 - b1 if a0 >= b0 else b0 - a1,
+                                 edge=a0 if a0 >= b0 else a1)
+            if score is not None:
+                key = (min(k, other), max(k, other))
+                pair_score[key] = max(pair_score.get(key, score), score)
     root = {k: k for k in names}
 
     def find(k: str) -> str:
@@ -521,15 +503,13 @@ def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
         return k
 
     changed: set[str] = set()
-    for i, j in enumerate(result.best.choice):
-        if j < 0:
+    for (p, q), _ in sorted(pair_score.items(), key=lambda kv: -kv[1]):
+        a, b = find(p), find(q)
+        if a == b or (a in anchored and b in anchored) or any(
+                _member_conflict(objects, b, seg, segs_of) for seg in segs_of.get(a, [])):
             continue
-        a, b = find(items[i]), find(names[j])
-        if a == b:
-            continue
-        keep, gone = (b, a) if b in anchored or spans[b][0] <= spans[a][0] else (a, b)
-        if gone in anchored:
-            continue
+        keep, gone = (b, a) if b in anchored or (a not in anchored
+                                                and spans[b][0] <= spans[a][0]) else (a, b)
         root[gone] = keep
         objects.members[keep].extend(objects.members.pop(gone))
         segs_of.setdefault(keep, []).extend(segs_of.pop(gone, []))
@@ -537,6 +517,28 @@ def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
     for k in {find(k) for k in changed}:
         objects.estimate(k)
     return [k for k in discovered if root[k] == k]
+
+
+def _relay_score(objects: _Objects, segs: list[Segment], track: ObjectTrack, *, after: bool,
+                 gap: float, edge: float) -> float | None:
+    """Score (nats) of segments ``segs`` continuing ``track`` across a gap of ``gap`` s
+    (``after``: they come after it; ``edge``: their own start, else their end, s), on their
+    rows within ``max(RELAY_WINDOW_SECONDS, gap)`` of the edge; None unless it is positive
+    and ``MIN_FIT_SHARE`` of those rows fit."""
+    window = max(RELAY_WINDOW_SECONDS, gap)
+    total, fit, n = 0.0, 0, 0
+    for seg in segs:
+        t = objects.rows[seg.sensor].t[seg.rows]
+        near = seg.rows[t <= edge + window] if after else seg.rows[t >= edge - window]
+        if near.size == 0:
+            continue
+        batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+        scored = spread(near, SCORED_ROWS)
+        llr = segment_score(batch, scored, track)[2]
+        total += float(llr.sum()) * near.size / scored.size
+        fit += int((llr > 0.0).sum())
+        n += llr.size
+    return total if total > 0.0 and n and fit / n >= MIN_FIT_SHARE else None
 
 
 def _span(objects: _Objects, key: str) -> tuple[float, float]:

@@ -2,6 +2,8 @@
 an object re-acquired after a manoeuvre in a radar gap (found by ``make multi``)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 
@@ -46,3 +48,23 @@ def test_an_object_is_reacquired_after_a_manoeuvre_in_a_radar_gap(tmp_path) -> N
     fused = pd.read_parquet(tmp_path / "out" / "fused.parquet")
     mine = fused[fused.target_id == m["best_match"]]
     assert np.isfinite(mine[["e", "n", "u"]].to_numpy()).all()
+
+
+def test_a_splitting_formation_is_stitched_without_joining_overlapping_tracks(tmp_path) -> None:
+    """formation, seed 3: R1's tracks pause as the formation splits; each object's pieces
+    are stitched to its own continuation, and no object ever holds two segments of one sensor
+    that overlap in time (a chain of joins once did)."""
+    run(simulate_multi(tmp_path, kind="formation", seed=3))
+    table = _association(tmp_path)
+    tracked = table[(table.true != "") & (table.target_id.fillna("") != "")]
+    owners = {}
+    for obj in ("U1", "U2"):
+        counts = tracked[tracked.true == obj].target_id.value_counts()
+        owners[obj] = counts.index[0]
+        assert counts.iloc[0] / counts.sum() > 0.99, (obj, counts.to_dict())
+    assert owners["U1"] != owners["U2"]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for obj, entry in summary["association"]["objects"].items():
+        segs = sorted(entry["segments"], key=lambda s: (s["sensor"], s["t0"]))
+        for a, b in zip(segs, segs[1:]):
+            assert a["sensor"] != b["sensor"] or a["t1"] < b["t0"], (obj, a, b)
