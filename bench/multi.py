@@ -81,8 +81,9 @@ def observed_spans(scen: Path) -> dict[str, tuple[float, float]]:
         path = scen / sen["file"]
         t = (pd.read_parquet(path, columns=["time"]) if path.suffix == ".parquet"
              else pd.read_csv(path, usecols=["time"]))["time"]
-        t = pd.to_numeric(t, errors="coerce") if t.dtype != object else pd.Series(
-            pd.to_datetime(t, utc=True, errors="coerce").astype("int64") / 1e9, index=t.index)
+        if not pd.api.types.is_numeric_dtype(t):          # ISO-8601 stamps
+            t = (pd.to_datetime(t, utc=True, errors="coerce")
+                 - pd.Timestamp(0, tz="UTC")).dt.total_seconds()
         if sen["kind"] in ("gps", "mistram") and "target" in sen:
             times.setdefault(sen["target"], []).extend(t.dropna().to_list())
         elif sen["kind"] in ("radar", "theodolite"):
