@@ -44,6 +44,7 @@ from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_t
 from rangeproc.fusion.initialise import NoPositionFix, Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
+from rangeproc.tracking.plot_association import plot_owners, reassign_members
 from rangeproc.tracking.plots import (
     is_framed,
     is_rotating,
@@ -97,7 +98,8 @@ SHORT = "segment too short to start an object"
 class Segment:
     """Rows of one sensor that follow one object: ``rows`` index that sensor's
     :class:`SensorRows` (time order); ``track`` the file's track_id hint (-1 for plots);
-    ``t0``, ``t1`` (s); ``has_range``: it can start a track alone."""
+    ``t0``, ``t1`` (s); ``has_range``: it can start a track alone; ``plot``: a track of the
+    plot tracker (its rows are re-associated one by one at the end, step 5)."""
 
     id: int
     sensor: int
@@ -106,6 +108,7 @@ class Segment:
     t0: float
     t1: float
     has_range: bool
+    plot: bool = False
 
 
 @dataclass(slots=True)
@@ -139,10 +142,10 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
     angle_plots = np.zeros(0, dtype=np.int64)
     has_range_row = np.isfinite(rows.z[:, 0])
 
-    def add(sel: np.ndarray, track: int) -> None:
+    def add(sel: np.ndarray, track: int, plot: bool = False) -> None:
         t = rows.t[sel]
         out.append(Segment(first_id + len(out), sensor, sel, track, float(t[0]), float(t[-1]),
-                           bool(has_range_row[sel].mean() > 0.5)))
+                           bool(has_range_row[sel].mean() > 0.5), plot))
 
     plots = rows.track < 0
     if plots.any():
@@ -166,7 +169,7 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
             label = track_plots(rows.t[ranged], p, R, scan_numbers(rows.t[ranged], z[:, 1]))
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
-                add(ranged[label == k], -1)
+                add(ranged[label == k], -1, plot=True)
     return out, clutter, angle_plots
 
 
@@ -285,7 +288,7 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
     for sel in (seg.rows[:k_rows], seg.rows[k_rows:]):
         t = rows.t[sel]
         parts.append(Segment(new_id(), seg.sensor, sel, seg.track, float(t[0]), float(t[-1]),
-                             bool(np.isfinite(rows.z[sel, 0]).mean() > 0.5)))
+                             bool(np.isfinite(rows.z[sel, 0]).mean() > 0.5), seg.plot))
     return parts[0], parts[1]
 
 
@@ -451,19 +454,54 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                     replaced, tick, relay=True)
     discovered = _stitch(objects, anchored, discovered, segs_of)
     discovered = _relay_lone_objects(objects, declared, anchored, discovered, segs_of)
+    final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
+                   key=lambda s: s.id)
+    plot_owner = _reassociate_plots(objects, [*anchored, *discovered], final, clutter)
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
                if k in names and objects.members.get(k)}
-    final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
-                   key=lambda s: s.id)
     segment_object: dict[int, str | None] = {s.id: None for s in final}
     for key, segs in segs_of.items():
         for s in segs:
             segment_object[s.id] = names.get(key)
-    return Synthesis(members, final, segment_object,
-                     *_row_tables(rows, kinds, final, segment_object, clutter, angle_plots),
+    tables = _row_tables(rows, kinds, final, segment_object, clutter, angle_plots)
+    for i, (plots, keys) in plot_owner.items():              # step 5: plot by plot
+        owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
+        tables[0][i][plots] = owner
+        tables[2][i][plots] = np.where(owner != "", ASSOCIATED,
+                                       np.where(np.isin(plots, clutter.get(i, [])), CLUTTER,
+                                                NO_OBJECT))
+    return Synthesis(members, final, segment_object, *tables,
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names))
+
+
+def _reassociate_plots(objects: _Objects, keys: list[str], segments: list[Segment],
+                       clutter: Mapping[int, np.ndarray]
+                       ) -> dict[int, tuple[np.ndarray, list[str]]]:
+    """Step 5: every plot of a plot-tracked sensor (its tracks' rows and its clutter) goes to
+    the object it fits best (``tracking.plot_association``); the memberships change
+    accordingly. Returns sensor -> (plot rows, the key of each one's object or "")."""
+    plots: dict[int, list[np.ndarray]] = {}
+    for seg in segments:
+        if seg.plot:
+            plots.setdefault(seg.sensor, []).append(seg.rows)
+    out: dict[int, tuple[np.ndarray, list[str]]] = {}
+    keys = [k for k in keys if k in objects.tracks]
+    for i, parts in plots.items():
+        rows = np.unique(np.concatenate([*parts, clutter.get(i, np.zeros(0, np.int64))]))
+        batch = _as_batch(objects.rows[i], objects.sensor_ids, i)
+        scan = scan_numbers(batch.t[rows], batch.z[rows, AZIMUTH])
+        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan)
+        before = np.full(rows.size, -1, dtype=np.int64)  # where the plot tracks put them
+        for j, k in enumerate(keys):
+            for sensor, sel in objects.members.get(k, []):
+                if sensor == i:
+                    before[np.isin(rows, sel)] = j
+        owner = np.where(gated, owner, before)
+        objects.members = reassign_members(objects.members, i, rows, owner, keys)
+        out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
+    return out
 
 
 def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],

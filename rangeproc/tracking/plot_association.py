@@ -1,0 +1,94 @@
+"""A surveillance radar's plots, associated one by one with the finished objects.
+
+The plot tracker (``tracking.plots``) links plots scan to scan on their own evidence only; where
+two objects fly closer than a few plot sigmas its tracks can swap between them, and a segment
+then holds plots of both (``mixed`` seed 2: a surveillance track with 9 plots of one aircraft
+and 6 of the other). Once the objects exist, every plot of such a sensor (clutter included)
+is scored against each object whose span it lies in (``tracking.score``: the object's state
+carried to the plot time, ``S = H P Hᵀ + R``); within each scan the plots and the objects
+whose chi-square gate (probability ``GATE_PROBABILITY``) they pass are paired by the
+assignment of the largest summed log-likelihood ratio, an object taking at most one plot per
+scan (it is detected once per scan); a plot that loses its scan's assignment is unassigned,
+one that no object gates stays where its plot track put it (a sparse object's own quick
+trajectory may be too poor to gate all of its plots). An object tracked
+precisely by another sensor thereby takes its own plots back from an object that only the
+surveillance radar sees.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
+
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.tracking.score import ObjectTrack, score_rows
+
+#: Chi-square gate probability of a plot against an object.
+GATE_PROBABILITY = 0.9999
+#: A plot is scored against an object whose span (s) it lies within this margin of.
+SPAN_MARGIN_SECONDS = 2.0
+#: Cost of a pair outside the gate in the per-scan assignment (never chosen over a gated one).
+BIG = 1e12
+
+
+def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
+                tracks: Sequence[ObjectTrack | None], scan: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(owner (P,): index into ``tracks`` of the object each plot row goes to, -1 for none;
+    gated (P,) bool: some object's gate holds the plot).
+
+    batch: one sensor's rows as a batch; plots: (P,) row indices of its plots; tracks: the
+    objects' quick trajectories (None: the object has none); scan: (P,) scan number of each
+    plot. Within a scan an object takes at most one plot and a plot goes to at most one object:
+    the assignment maximising the summed log-likelihood ratio over the gated pairs
+    (``scipy.optimize.linear_sum_assignment``). Module docstring for the gate.
+    """
+    owner = np.full(plots.size, -1, dtype=np.int64)
+    if plots.size == 0 or not tracks:
+        return owner, np.zeros(plots.size, dtype=bool)
+    llr = np.full((plots.size, len(tracks)), -np.inf)
+    t = batch.t[plots]
+    dof = np.isfinite(batch.z[plots, :4]).sum(axis=1)
+    gate = np.asarray(chi2.ppf(GATE_PROBABILITY, np.maximum(dof, 1)), dtype=float)
+    for j, track in enumerate(tracks):
+        if track is None or track.t.size == 0:
+            continue
+        inside = np.flatnonzero((t >= track.t[0] - SPAN_MARGIN_SECONDS)
+                                & (t <= track.t[-1] + SPAN_MARGIN_SECONDS))
+        if inside.size == 0:
+            continue
+        _, nis, ll = score_rows(batch, plots[inside], track)
+        ok = nis <= gate[inside]
+        llr[inside[ok], j] = ll[ok]
+    gated = np.isfinite(llr).any(axis=1)
+    order = np.argsort(scan, kind="stable")
+    bounds = np.flatnonzero(np.diff(scan[order])) + 1
+    for rows in np.split(order, bounds):
+        rows = rows[gated[rows]]
+        if rows.size == 0:
+            continue
+        block = llr[rows]
+        cols = np.flatnonzero(np.isfinite(block).any(axis=0))
+        block = block[:, cols]
+        a, b = linear_sum_assignment(np.where(np.isfinite(block), -block, BIG))
+        ok = np.isfinite(block[a, b])
+        owner[rows[a[ok]]] = cols[b[ok]]
+    return owner, gated
+
+
+def reassign_members(members: Mapping[str, list[tuple[int, np.ndarray]]], sensor: int,
+                     plots: np.ndarray, owner: np.ndarray, keys: Sequence[str]
+                     ) -> dict[str, list[tuple[int, np.ndarray]]]:
+    """Object memberships with ``sensor``'s plot rows ``plots`` moved to their ``owner``
+    (index into ``keys``; -1: to no object); other rows are left where they are."""
+    out: dict[str, list[tuple[int, np.ndarray]]] = {}
+    for key, parts in members.items():
+        kept = [(i, sel if i != sensor else sel[~np.isin(sel, plots)]) for i, sel in parts]
+        out[key] = [(i, sel) for i, sel in kept if sel.size]
+    for j, key in enumerate(keys):
+        mine = plots[owner == j]
+        if mine.size and key in out:
+            out[key].append((sensor, np.sort(mine)))
+    return out
