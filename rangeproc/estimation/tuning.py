@@ -26,12 +26,12 @@ MAX_SEARCH_ROWS = 100_000
 
 def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                         gate: np.ndarray, q_grid: tuple[float, ...], reset_after: int,
-                        reset_inflation: float, *,
-                        window: float = 4.0) -> tuple[float, np.ndarray]:
+                        reset_inflation: float, *, window: float = 4.0,
+                        max_rows: int = MAX_SEARCH_ROWS) -> tuple[float, np.ndarray]:
     """Starting white-jerk PSD: a global value and a local profile, by innovation likelihood.
 
     The filter runs once per candidate q over an evenly decimated subset of the rows (at most
-    ``MAX_SEARCH_ROWS``); each row's log-likelihood contribution is kept (rejected rows count
+    ``max_rows``); each row's log-likelihood contribution is kept (rejected rows count
     at the gate, so a q that rejects more data is not rewarded).
 
     Returns:
@@ -42,7 +42,7 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
         average), shrunk half-way toward ``q_global`` in log q, and dilated over half a window
         so a manoeuvre's onset is covered.
     """
-    step = max(1, int(np.ceil(len(batch.t) / MAX_SEARCH_ROWS)))
+    step = max(1, int(np.ceil(len(batch.t) / max_rows)))
     rows = np.arange(0, len(batch.t), step)
     t = batch.t[rows]
     sub_epochs = np.unique(t)

@@ -43,7 +43,8 @@ from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.spline_filter import spline_params
-from rangeproc.estimation.tuning import local_process_noise, start_process_noise
+from rangeproc.estimation.tuning import (MAX_SEARCH_ROWS, local_process_noise,
+                                         start_process_noise)
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.refraction_rows import RefractionSettings, refraction_corrections
@@ -82,7 +83,8 @@ class EstimatorSettings:
     adapt_noise: estimate noise from the data (difference pre-edit + residual passes).
     process_noise: white-jerk PSD q (m^2/s^5), held constant; None = estimate it: maximum
         likelihood over ``q_grid`` first, then local EM updates over ``q_window`` seconds.
-    q_grid: candidate q values for the likelihood search.
+    q_grid: candidate q values for the likelihood search; q_search_rows: at most this many
+        rows (evenly spread) in it.
     q_window: window (s) of the local process-noise estimate.
     reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
     method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
@@ -120,6 +122,7 @@ class EstimatorSettings:
     process_noise: float | None = None
     q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 5, 8))
     q_window: float = 2.0
+    q_search_rows: int = MAX_SEARCH_ROWS
     reset_after: int = 50
     reset_inflation: float = 100.0
     method: int = EKF
@@ -488,7 +491,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         q = np.full(len(epoch_t), settings.process_noise)
     else:
         q0, q = start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
-                                    settings.reset_after, settings.reset_inflation)
+                                    settings.reset_after, settings.reset_inflation,
+                                    max_rows=settings.q_search_rows)
         log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
                  float(np.median(q)))
     x_lin = np.empty((0, x0.shape[0]))

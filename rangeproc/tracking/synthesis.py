@@ -85,6 +85,9 @@ SCORING_RATE_HZ = 10.0
 #: these many, evenly spread (association needs the shape of a track, not every row).
 QUICK_ROWS_PER_SENSOR = 20_000
 SCORED_ROWS = 3_000
+#: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
+#: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
+QUICK_Q_SEARCH_ROWS = 5_000
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -204,9 +207,16 @@ class _Objects:
         self.rows = rows
         self.priors = priors
         self.sensor_ids = sensor_ids
-        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None)
+        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None,
+                                q_search_rows=QUICK_Q_SEARCH_ROWS)
         self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
         self.tracks: dict[str, ObjectTrack] = {}
+        #: per object, how often its trajectory was estimated (the scores' cache key)
+        self.version: dict[str, int] = {}
+        #: (segment id, object) -> (object version, per-row llr of the segment's scored rows):
+        #: a discovery re-scores every pending segment, but only against the objects that
+        #: changed since (the scores are identical to recomputing them)
+        self.llr_cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
 
     def batch(self, name: str) -> MeasurementBatch:
         """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
@@ -227,6 +237,7 @@ class _Objects:
         if not result.grid.any():
             return False
         self.tracks[name] = object_track(result)
+        self.version[name] = self.version.get(name, 0) + 1
         return True
 
 
@@ -248,7 +259,12 @@ def _scored_llr(objects: _Objects, seg: Segment, names: list[str], rows: np.ndar
             continue
         if not relay and not overlaps(seg.t0, seg.t1, float(tr.t[0]), float(tr.t[-1])):
             continue
-        out[j] = segment_score(batch, rows, tr)[2]
+        version = objects.version.get(name, 0)
+        cached = objects.llr_cache.get((seg.id, name))
+        if cached is None or cached[0] != version:
+            cached = (version, segment_score(batch, rows, tr)[2])
+            objects.llr_cache[(seg.id, name)] = cached
+        out[j] = cached[1]
     return out
 
 
