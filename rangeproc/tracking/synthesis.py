@@ -8,23 +8,30 @@
 2. **Anchored objects**: each declared target carrying GPS (or MISTRAM) starts as the
    trajectory of those rows alone: they name the object (DATA_CONTRACT: GPS and MISTRAM
    measure one cooperative target).
-3. **Growth** (association and relay): every pending segment is scored against every object
-   whose span it overlaps or comes within ``BRIDGE_SECONDS`` of (``tracking.score``: row
-   log-likelihood ratios, the object's state carried across gaps with its process noise, a
+3. **Growth** (association): every pending segment is scored against every object whose span
+   it overlaps by ``OVERLAP_SECONDS`` or half its length (``tracking.score``: row
+   log-likelihood ratios, the object's state carried to each row with its process noise, a
    constant bias tolerated). A link is a candidate when it scores positive and most of the
    segment's rows fit (``MIN_FIT_SHARE``). The best global assignment of pending segments
    to objects, two segments of one sensor overlapping in time never sharing an object, is the
    hypothesis search of ``tracking.hypotheses`` (its best and runner-up scores are reported).
    Objects that gained segments are re-estimated from all their rows, and the scoring is
-   repeated, so an object grows across sensors and gaps until no segment joins.
+   repeated (scores cached per object version), so an object grows across sensors until no
+   segment joins.
 4. **Discovery**: the longest pending segment that can start a track alone (one with range,
    ``MIN_SEED_ROWS`` rows over ``MIN_SEED_SECONDS``) starts a new object, which grows as in
-   3; repeated until none is left. Declared targets without GPS or MISTRAM take the
-   discovered objects with the most rows, in declaration order; the other discovered objects
-   are named ``O1``, ``O2``, ... in order of first appearance. With a single declared target,
-   a discovered object that overlaps no other object in time is that target seen at another
-   time (a GPS on another time scale, a long outage) and joins it.
-5. What is left is unassigned, with the reason.
+   3; repeated until none is left. Only then are relays scored (segments within
+   ``BRIDGE_SECONDS`` of an object, across gaps), so that a relay is decided among all the
+   objects that could continue there, and objects are stitched across gaps
+   (:func:`_stitch`, best score first, never joining overlapping segments of one sensor).
+   Declared targets without GPS or MISTRAM take the discovered objects with the most rows, in
+   declaration order; the other discovered objects are named ``O1``, ``O2``, ... in order of
+   first appearance. With a single declared target, a discovered object that overlaps no
+   other object in time is that target seen at another time (a GPS on another time scale, a
+   long outage) and joins it.
+5. **Plots, one by one** (``tracking.plot_association``): every plot of a plot-tracked
+   sensor goes to the object it fits best within the gates, one per object and scan.
+6. What is left is unassigned, with the reason.
 
 Objects used for scoring are estimated by the centralised smoother without refinement
 passes, registration or refraction (a quick, robust trajectory); the final estimate of every
