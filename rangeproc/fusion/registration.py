@@ -279,6 +279,13 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
         return (Calibration(terms, total, total, np.zeros((0, 0)), (), node_t,
                             np.zeros((len(node_t), N_NODE, N_NODE))),
                 np.zeros(0), np.zeros((len(batch), 4)))
+    has_ref = bool(np.isin(batch.sensor, [i for i, sp in enumerate(specs)
+                                          if sp is not None and sp.kind in REFERENCE_KINDS]).any())
+    if not has_ref:                   # nothing is estimable: no solve (an undeclared object of
+        why = "no absolute reference (GPS or MISTRAM rows of this target)"   # radars only)
+        return (Calibration(terms, total, np.zeros(p), np.zeros((p, p)), (why,) * p, node_t,
+                            np.zeros((len(node_t), N_NODE, N_NODE))),
+                np.zeros(p) - total, np.zeros((len(batch), 4)))
     node = _nearest(node_t, batch.t)
     moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
     mv_index, rates = axes_rate(batch, moving)
@@ -287,8 +294,6 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     q_node = np.maximum(q[np.searchsorted(epoch_t, node_t)][1:], 1e-6)
     diag, upper, rhs = process_blocks(node_t, q_node, x_node)
     diag[0] += np.diag(np.repeat([1e-6, 1e-4, 1e-4], 3))      # weak start (m, m/s, m/s^2)
-    has_ref = bool(np.isin(batch.sensor, [i for i, sp in enumerate(specs)
-                                          if sp is not None and sp.kind in REFERENCE_KINDS]).any())
     s_prior = np.array([PRIOR_SIGMA[t.name] for t in terms])
     args = (meas_epoch, node, node_t, batch.t, batch.model)
     geo = (batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs)
