@@ -41,16 +41,23 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from rangeproc.estimation.linalg import unpack
-from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
-from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
-from rangeproc.fusion.initialise import NoPositionFix, Prior
+from rangeproc.fusion.batch import SensorRows
+from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
+from rangeproc.tracking.objects import (
+    Objects,
+    Segment,
+    as_batch,
+    member_conflict,
+    overlaps,
+    spread,
+)
 from rangeproc.tracking.plot_association import plot_owners, reassign_members
 from rangeproc.tracking.plots import (
     is_framed,
@@ -66,11 +73,6 @@ log = logging.getLogger(__name__)
 
 #: A segment is scored against an object whose span it comes within this many seconds of.
 BRIDGE_SECONDS = 60.0
-#: While objects are being discovered, a segment is scored only against objects it overlaps
-#: in time by at least this many seconds (or half its own duration): association first,
-#: relay across gaps once every object exists (step 5), so a relay decision is made among
-#: all the objects that could continue there, not given to the first one discovered.
-OVERLAP_SECONDS = 5.0
 #: Two objects are joined across a gap on the rows within this many seconds of the gap (or
 #: the gap's length, if longer): the carried trajectory predicts the other object only near
 #: its end, and a manoeuvre later on is no evidence against the join.
@@ -86,15 +88,8 @@ SPLIT_GAIN = 50.0
 MIN_SPLIT_ROWS = 10
 #: Growth rounds per object set (each re-estimates the objects that changed).
 MAX_ROUNDS = 8
-#: Output rate (Hz) of the quick trajectories used for scoring.
-SCORING_RATE_HZ = 10.0
-#: Rows per sensor of an object's quick trajectory, and rows of a segment scored: at most
-#: these many, evenly spread (association needs the shape of a track, not every row).
-QUICK_ROWS_PER_SENSOR = 20_000
+#: Rows of a segment scored against an object: at most these many, evenly spread.
 SCORED_ROWS = 3_000
-#: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
-#: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
-QUICK_Q_SEARCH_ROWS = 5_000
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -102,23 +97,6 @@ CLUTTER = "clutter"
 NO_OBJECT = "no object fits"
 ANGLE_PLOT = "angle-only plot"
 SHORT = "segment too short to start an object"
-
-
-@dataclass(frozen=True, slots=True)
-class Segment:
-    """Rows of one sensor that follow one object: ``rows`` index that sensor's
-    :class:`SensorRows` (time order); ``track`` the file's track_id hint (-1 for plots);
-    ``t0``, ``t1`` (s); ``has_range``: it can start a track alone; ``plot``: a track of the
-    plot tracker (its rows are re-associated one by one at the end, step 5)."""
-
-    id: int
-    sensor: int
-    rows: np.ndarray
-    track: int
-    t0: float
-    t1: float
-    has_range: bool
-    plot: bool = False
 
 
 @dataclass(slots=True)
@@ -183,83 +161,12 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
     return out, clutter, angle_plots
 
 
-def object_track(result: FusionResult) -> ObjectTrack:
-    """The output-grid epochs of a fused result as an :class:`ObjectTrack`."""
-    g = result.grid
-    n = result.xs.shape[1]
-    P = np.empty((int(g.sum()), n, n))
-    for k, packed in enumerate(result.Ps[g]):
-        unpack(packed, P[k])
-    return ObjectTrack(np.ascontiguousarray(result.epoch_t[g]),
-                       np.ascontiguousarray(result.xs[g][:, :9]),
-                       np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))
-
-
-def spread(sel: np.ndarray, most: int) -> np.ndarray:
-    """At most ``most`` entries of ``sel``, evenly spread, first and last included."""
-    if sel.size <= most:
-        return sel
-    return sel[np.unique(np.linspace(0, sel.size - 1, most).astype(np.int64))]
-
-
-def _subset(rows: SensorRows, sel: np.ndarray) -> SensorRows:
-    return SensorRows(**{f: getattr(rows, f)[sel] for f in SensorRows.__slots__})
-
-
-class _Objects:
-    """Objects under construction: member rows per object and their quick trajectories."""
-
-    def __init__(self, rows: Mapping[int, SensorRows], sensor_ids: tuple[str, ...],
-                 settings: EstimatorSettings, priors: Mapping[str, Prior]) -> None:
-        self.rows = rows
-        self.priors = priors
-        self.sensor_ids = sensor_ids
-        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None,
-                                q_search_rows=QUICK_Q_SEARCH_ROWS)
-        self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
-        self.tracks: dict[str, ObjectTrack] = {}
-        #: per object, how often its trajectory was estimated (the scores' cache key)
-        self.version: dict[str, int] = {}
-        #: (segment id, object) -> (object version, per-row llr of the segment's scored rows):
-        #: a discovery re-scores every pending segment, but only against the objects that
-        #: changed since (the scores are identical to recomputing them)
-        self.llr_cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
-
-    def batch(self, name: str) -> MeasurementBatch:
-        """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
-        parts: dict[int, list[np.ndarray]] = {}
-        for i, sel in self.members[name]:
-            parts.setdefault(i, []).append(sel)
-        return merge([(i, _subset(self.rows[i], spread(np.sort(np.concatenate(sels)),
-                                                       QUICK_ROWS_PER_SENSOR)))
-                      for i, sels in parts.items()], self.sensor_ids)
-
-    def estimate(self, name: str) -> bool:
-        """(Re-)estimate an object's quick trajectory; False when it cannot be started."""
-        try:
-            result = fuse_target(self.batch(name), SCORING_RATE_HZ, self.settings,
-                                 prior=self.priors.get(name))
-        except NoPositionFix:
-            return False
-        if not result.grid.any():
-            return False
-        self.tracks[name] = object_track(result)
-        self.version[name] = self.version.get(name, 0) + 1
-        return True
-
-
-def overlaps(t0: float, t1: float, u0: float, u1: float) -> bool:
-    """True when span [t0, t1] overlaps [u0, u1] (s) by ``OVERLAP_SECONDS`` or by half of
-    [t0, t1]'s duration, whichever is less."""
-    return min(t1, u1) - max(t0, u0) >= min(OVERLAP_SECONDS, 0.5 * (t1 - t0))
-
-
-def _scored_llr(objects: _Objects, seg: Segment, names: list[str], rows: np.ndarray,
+def _scored_llr(objects: Objects, seg: Segment, names: list[str], rows: np.ndarray,
                 relay: bool) -> dict[int, np.ndarray]:
     """Object index -> per-row llr (M,) of the segment's rows ``rows`` against each object
     whose span it comes within ``BRIDGE_SECONDS`` of (``relay``) or overlaps (not)."""
     out: dict[int, np.ndarray] = {}
-    batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+    batch = as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
     for j, name in enumerate(names):
         tr = objects.tracks.get(name)
         if tr is None or seg.t1 < tr.t[0] - BRIDGE_SECONDS or seg.t0 > tr.t[-1] + BRIDGE_SECONDS:
@@ -315,7 +222,7 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
     return parts[0], parts[1]
 
 
-def _score_links(objects: _Objects, pending: list[Segment], names: list[str],
+def _score_links(objects: Objects, pending: list[Segment], names: list[str],
                  new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
                  relay: bool) -> tuple[list[Segment], dict[tuple[int, int], float]]:
     """Candidate links (pending index, object index) -> score (module docstring, step 3),
@@ -343,14 +250,6 @@ def _score_links(objects: _Objects, pending: list[Segment], names: list[str],
     return out, links
 
 
-def _as_batch(rows: SensorRows, sensor_ids: tuple[str, ...], sensor: int) -> MeasurementBatch:
-    """A sensor's rows viewed as a batch (same row order; no copy of the big arrays)."""
-    n = rows.t.size
-    return MeasurementBatch(rows.t, rows.model, rows.z, rows.sigma, rows.s, rows.sv, rows.Qr,
-                            np.full(n, sensor, dtype=np.int64), rows.source_row, rows.station,
-                            rows.track, sensor_ids)
-
-
 def _conflicts(pending: list[Segment]) -> list[tuple[int, int]]:
     """Pairs of pending segments of one sensor overlapping in time."""
     out = []
@@ -362,14 +261,7 @@ def _conflicts(pending: list[Segment]) -> list[tuple[int, int]]:
     return out
 
 
-def _member_conflict(objects: _Objects, name: str, seg: Segment,
-                     segs_of: Mapping[str, list[Segment]]) -> bool:
-    """True when the object already holds a segment of the same sensor overlapping ``seg``."""
-    return any(o.sensor == seg.sensor and o.t0 <= seg.t1 and seg.t0 <= o.t1
-               for o in segs_of.get(name, []))
-
-
-def _grow(objects: _Objects, names: list[str], pending: list[Segment],
+def _grow(objects: Objects, names: list[str], pending: list[Segment],
           segs_of: dict[str, list[Segment]], searches: list[SearchResult],
           new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
           tick: Callable[[], None], relay: bool) -> list[Segment]:
@@ -380,7 +272,7 @@ def _grow(objects: _Objects, names: list[str], pending: list[Segment],
             break
         pending, links = _score_links(objects, pending, names, new_id, replaced, relay)
         links = {(i, j): w for (i, j), w in links.items()
-                 if not _member_conflict(objects, names[j], pending[i], segs_of)}
+                 if not member_conflict(objects, names[j], pending[i], segs_of)}
         if not links:
             break
         order = sorted(range(len(pending)), key=lambda i: pending[i].t0)
@@ -427,7 +319,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         settings: the estimator settings (the quick trajectories drop the refinements).
         priors: declared target id -> its ``initial`` state (starts MISTRAM-only anchors).
     """
-    objects = _Objects(rows, sensor_ids, settings, priors or {})
+    objects = Objects(rows, sensor_ids, settings, priors or {})
     segments: list[Segment] = []
     clutter: dict[int, np.ndarray] = {}
     angle_plots: dict[int, np.ndarray] = {}
@@ -487,19 +379,20 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     for key, segs in segs_of.items():
         for s in segs:
             segment_object[s.id] = names.get(key)
-    tables = _row_tables(rows, kinds, final, segment_object, clutter, angle_plots)
+    row_object, row_segment, row_reason = _row_tables(rows, kinds, final, segment_object,
+                                                      clutter, angle_plots)
     for i, (plots, keys) in plot_owner.items():              # step 5: plot by plot
         owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
-        tables[0][i][plots] = owner
-        tables[2][i][plots] = np.where(owner != "", ASSOCIATED,
-                                       np.where(np.isin(plots, clutter.get(i, [])), CLUTTER,
-                                                NO_OBJECT))
-    return Synthesis(members, final, segment_object, *tables,
+        row_object[i][plots] = owner
+        row_reason[i][plots] = np.where(owner != "", ASSOCIATED,
+                                        np.where(np.isin(plots, clutter.get(i, [])), CLUTTER,
+                                                 NO_OBJECT))
+    return Synthesis(members, final, segment_object, row_object, row_segment, row_reason,
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names))
 
 
-def _reassociate_plots(objects: _Objects, keys: list[str], segments: list[Segment],
+def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
                        clutter: Mapping[int, np.ndarray]
                        ) -> dict[int, tuple[np.ndarray, list[str]]]:
     """Step 5: every plot of a plot-tracked sensor (its tracks' rows and its clutter) goes to
@@ -513,7 +406,7 @@ def _reassociate_plots(objects: _Objects, keys: list[str], segments: list[Segmen
     keys = [k for k in keys if k in objects.tracks]
     for i, parts in plots.items():
         rows = np.unique(np.concatenate([*parts, clutter.get(i, np.zeros(0, np.int64))]))
-        batch = _as_batch(objects.rows[i], objects.sensor_ids, i)
+        batch = as_batch(objects.rows[i], objects.sensor_ids, i)
         scan = scan_numbers(batch.t[rows], batch.z[rows, AZIMUTH])
         owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan)
         before = np.full(rows.size, -1, dtype=np.int64)  # where the plot tracks put them
@@ -527,7 +420,7 @@ def _reassociate_plots(objects: _Objects, keys: list[str], segments: list[Segmen
     return out
 
 
-def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
+def _stitch(objects: Objects, anchored: list[str], discovered: list[str],
             segs_of: dict[str, list[Segment]]) -> list[str]:
     """Relay between objects (step 5): a discovered object that lies before or after another
     object in time (overlapping it by less than ``OVERLAP_SECONDS``, within
@@ -567,7 +460,7 @@ def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
     for (p, q), _ in sorted(pair_score.items(), key=lambda kv: -kv[1]):
         a, b = find(p), find(q)
         if a == b or (a in anchored and b in anchored) or any(
-                _member_conflict(objects, b, seg, segs_of) for seg in segs_of.get(a, [])):
+                member_conflict(objects, b, seg, segs_of) for seg in segs_of.get(a, [])):
             continue
         keep, gone = (b, a) if b in anchored or (a not in anchored
                                                 and spans[b][0] <= spans[a][0]) else (a, b)
@@ -580,7 +473,7 @@ def _stitch(objects: _Objects, anchored: list[str], discovered: list[str],
     return [k for k in discovered if root[k] == k]
 
 
-def _relay_score(objects: _Objects, segs: list[Segment], track: ObjectTrack, *, after: bool,
+def _relay_score(objects: Objects, segs: list[Segment], track: ObjectTrack, *, after: bool,
                  gap: float, edge: float) -> float | None:
     """Score (nats) of segments ``segs`` continuing ``track`` across a gap of ``gap`` s
     (``after``: they come after it; ``edge``: their own start, else their end, s), on their
@@ -593,7 +486,7 @@ def _relay_score(objects: _Objects, segs: list[Segment], track: ObjectTrack, *, 
         near = seg.rows[t <= edge + window] if after else seg.rows[t >= edge - window]
         if near.size == 0:
             continue
-        batch = _as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+        batch = as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
         scored = spread(near, SCORED_ROWS)
         llr = segment_score(batch, scored, track)[2]
         total += float(llr.sum()) * near.size / scored.size
@@ -602,13 +495,13 @@ def _relay_score(objects: _Objects, segs: list[Segment], track: ObjectTrack, *, 
     return total if total > 0.0 and n and fit / n >= MIN_FIT_SHARE else None
 
 
-def _span(objects: _Objects, key: str) -> tuple[float, float]:
+def _span(objects: Objects, key: str) -> tuple[float, float]:
     """Time span (s) of an object's estimated trajectory."""
     t = objects.tracks[key].t
     return float(t[0]), float(t[-1])
 
 
-def _relay_lone_objects(objects: _Objects, declared: Sequence[str], anchored: list[str],
+def _relay_lone_objects(objects: Objects, declared: Sequence[str], anchored: list[str],
                         discovered: list[str], segs_of: dict[str, list[Segment]]
                         ) -> list[str]:
     """With one declared target, anchored: a discovered object that overlaps no other object
@@ -632,7 +525,7 @@ def _relay_lone_objects(objects: _Objects, declared: Sequence[str], anchored: li
     return left
 
 
-def _name_objects(objects: _Objects, declared: Sequence[str], anchored: list[str],
+def _name_objects(objects: Objects, declared: Sequence[str], anchored: list[str],
                   discovered: list[str]) -> dict[str, str]:
     """Internal key -> output id: declared targets without anchors take the biggest
     discovered objects in declaration order; the rest are O1, O2, ... by first appearance."""

@@ -1,0 +1,139 @@
+"""Objects under construction in track synthesis: segments, member rows, quick trajectories.
+
+A :class:`Segment` is a run of one sensor's rows that follow one object
+(``tracking.segments``, ``tracking.plots``); :class:`Objects` holds each object's member
+rows and its quick trajectory, the centralised smoother without refinement passes,
+registration or refraction, on at most ``QUICK_ROWS_PER_SENSOR`` rows per sensor, against
+which segments are scored (``tracking.score``).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from rangeproc.estimation.linalg import unpack
+from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
+from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.initialise import NoPositionFix, Prior
+from rangeproc.tracking.score import ObjectTrack
+
+#: While objects are being discovered, a segment is scored only against objects it overlaps
+#: in time by at least this many seconds (or half its own duration): association first,
+#: relay across gaps once every object exists (``tracking.synthesis``, step 4), so a relay
+#: decision is made among all the objects that could continue there, not given to the first
+#: one discovered.
+OVERLAP_SECONDS = 5.0
+#: Output rate (Hz) of the quick trajectories used for scoring.
+SCORING_RATE_HZ = 10.0
+#: Rows per sensor of an object's quick trajectory: at most these many, evenly spread
+#: (association needs the shape of a track, not every row).
+QUICK_ROWS_PER_SENSOR = 20_000
+#: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
+#: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
+QUICK_Q_SEARCH_ROWS = 5_000
+
+
+@dataclass(frozen=True, slots=True)
+class Segment:
+    """Rows of one sensor that follow one object: ``rows`` index that sensor's
+    :class:`SensorRows` (time order); ``track`` the file's track_id hint (-1 for plots);
+    ``t0``, ``t1`` (s); ``has_range``: it can start a track alone; ``plot``: a track of the
+    plot tracker (its rows are re-associated one by one at the end, ``tracking.synthesis``
+    step 5)."""
+
+    id: int
+    sensor: int
+    rows: np.ndarray
+    track: int
+    t0: float
+    t1: float
+    has_range: bool
+    plot: bool = False
+
+
+def object_track(result: FusionResult) -> ObjectTrack:
+    """The output-grid epochs of a fused result as an :class:`ObjectTrack`."""
+    g = result.grid
+    n = result.xs.shape[1]
+    P = np.empty((int(g.sum()), n, n))
+    for k, packed in enumerate(result.Ps[g]):
+        unpack(packed, P[k])
+    return ObjectTrack(np.ascontiguousarray(result.epoch_t[g]),
+                       np.ascontiguousarray(result.xs[g][:, :9]),
+                       np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))
+
+
+def spread(sel: np.ndarray, most: int) -> np.ndarray:
+    """At most ``most`` entries of ``sel``, evenly spread, first and last included."""
+    if sel.size <= most:
+        return sel
+    return sel[np.unique(np.linspace(0, sel.size - 1, most).astype(np.int64))]
+
+
+def subset_rows(rows: SensorRows, sel: np.ndarray) -> SensorRows:
+    return SensorRows(**{f: getattr(rows, f)[sel] for f in SensorRows.__slots__})
+
+
+class Objects:
+    """Objects under construction: member rows per object and their quick trajectories."""
+
+    def __init__(self, rows: Mapping[int, SensorRows], sensor_ids: tuple[str, ...],
+                 settings: EstimatorSettings, priors: Mapping[str, Prior]) -> None:
+        self.rows = rows
+        self.priors = priors
+        self.sensor_ids = sensor_ids
+        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None,
+                                q_search_rows=QUICK_Q_SEARCH_ROWS)
+        self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
+        self.tracks: dict[str, ObjectTrack] = {}
+        #: per object, how often its trajectory was estimated (the scores' cache key)
+        self.version: dict[str, int] = {}
+        #: (segment id, object) -> (object version, per-row llr of the segment's scored rows):
+        #: a discovery re-scores every pending segment, but only against the objects that
+        #: changed since (the scores are identical to recomputing them)
+        self.llr_cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
+
+    def batch(self, name: str) -> MeasurementBatch:
+        """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
+        parts: dict[int, list[np.ndarray]] = {}
+        for i, sel in self.members[name]:
+            parts.setdefault(i, []).append(sel)
+        return merge([(i, subset_rows(self.rows[i], spread(np.sort(np.concatenate(sels)),
+                                                       QUICK_ROWS_PER_SENSOR)))
+                      for i, sels in parts.items()], self.sensor_ids)
+
+    def estimate(self, name: str) -> bool:
+        """(Re-)estimate an object's quick trajectory; False when it cannot be started."""
+        try:
+            result = fuse_target(self.batch(name), SCORING_RATE_HZ, self.settings,
+                                 prior=self.priors.get(name))
+        except NoPositionFix:
+            return False
+        if not result.grid.any():
+            return False
+        self.tracks[name] = object_track(result)
+        self.version[name] = self.version.get(name, 0) + 1
+        return True
+
+
+def overlaps(t0: float, t1: float, u0: float, u1: float) -> bool:
+    """True when span [t0, t1] overlaps [u0, u1] (s) by ``OVERLAP_SECONDS`` or by half of
+    [t0, t1]'s duration, whichever is less."""
+    return min(t1, u1) - max(t0, u0) >= min(OVERLAP_SECONDS, 0.5 * (t1 - t0))
+
+
+def as_batch(rows: SensorRows, sensor_ids: tuple[str, ...], sensor: int) -> MeasurementBatch:
+    """A sensor's rows viewed as a batch (same row order; no copy of the big arrays)."""
+    n = rows.t.size
+    return MeasurementBatch(rows.t, rows.model, rows.z, rows.sigma, rows.s, rows.sv, rows.Qr,
+                            np.full(n, sensor, dtype=np.int64), rows.source_row, rows.station,
+                            rows.track, sensor_ids)
+
+
+def member_conflict(objects: Objects, name: str, seg: Segment,
+                     segs_of: Mapping[str, list[Segment]]) -> bool:
+    """True when the object already holds a segment of the same sensor overlapping ``seg``."""
+    return any(o.sensor == seg.sensor and o.t0 <= seg.t1 and seg.t0 <= o.t1
+               for o in segs_of.get(name, []))
