@@ -6,10 +6,8 @@ WGS-84 geodetic -> ECEF, then the ECEF -> NED rotation at the Piren origin writt
 """
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
-from types import ModuleType
 
 try:
     import tomllib
@@ -27,19 +25,10 @@ from rangeproc.pipeline import read_all
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _load(name: str, path: Path) -> ModuleType:
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+sys.path.insert(0, str(REPO / "bench"))          # bench/ is scripts, not a package
+import autoferry as bench  # noqa: E402
 
-
-tool = _load("autoferry_tool", REPO / "tools" / "autoferry.py")
-bench = _load("autoferry_bench", REPO / "bench" / "autoferry.py")
+tool = bench.load_tool()
 
 pytestmark = pytest.mark.skipif(not (tool.DATA_DIR / tool.PLOTS_FILE).is_file(),
                                 reason=f"Autoferry dataset not found in {tool.DATA_DIR}")
