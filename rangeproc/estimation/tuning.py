@@ -21,7 +21,7 @@ from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forwa
 EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
 
 #: Largest number of rows the likelihood search runs over.
-MAX_SEARCH_ROWS = 100_000
+MAX_SEARCH_ROWS = 20_000
 
 
 def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarray,
