@@ -29,7 +29,7 @@ OVERLAP_SECONDS = 5.0
 SCORING_RATE_HZ = 10.0
 #: Rows per sensor of an object's quick trajectory: at most these many, evenly spread
 #: (association needs the shape of a track, not every row).
-QUICK_ROWS_PER_SENSOR = 20_000
+QUICK_ROWS_PER_SENSOR = 5_000
 #: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
 #: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
 QUICK_Q_SEARCH_ROWS = 5_000
