@@ -78,15 +78,30 @@ RESET_CEILING = (1.0e4, 1.0e3, 1.0e2)
 
 
 @njit(cache=True, error_model="numpy")
-def bounded_inflation(P: np.ndarray, factor: float) -> float:
-    """The divergence guard's factor, lowered so that no kinematic variance of ``P`` (n, n)
-    exceeds its ``RESET_CEILING`` (never below 1: a covariance already there stays)."""
-    n = min(P.shape[0], N_KINEMATIC)
-    for a in range(n):
+def reset_covariance(P: np.ndarray, factor: float) -> None:
+    """The divergence guard's reset of ``P`` (n, n) in place: every kinematic variance
+    multiplied by ``factor`` but not beyond its ``RESET_CEILING`` (one that is already beyond
+    stays), and every covariance of a kinematic state with another state dropped
+    (calibration states keep their own block).
+
+    A track that lost its object has no trustworthy correlation left: the position-velocity
+    correlation the model built while coasting would turn the first position fix after
+    re-acquisition into a velocity error of (fix offset) / (coast time), hundreds of m/s
+    after a manoeuvre, which then locks the track onto a wrong line of sight (the accepted
+    range and elevation hold it while every azimuth is rejected). Each state is capped on
+    its own: one common factor, held down by an acceleration variance near its ceiling,
+    left a position 10 km off with a 400 m sigma.
+    """
+    n = P.shape[0]
+    kin = min(n, N_KINEMATIC)
+    for a in range(kin):
+        for b in range(n):
+            if b != a:
+                P[a, b] = 0.0
+                P[b, a] = 0.0
         ceiling = RESET_CEILING[a // 3] ** 2
-        if P[a, a] * factor > ceiling:
-            factor = max(1.0, min(factor, ceiling / max(P[a, a], 1e-300)))
-    return factor
+        P[a, a] = max(P[a, a], min(P[a, a] * factor, ceiling))
+
 
 #: A row the gate accepts only in part counts for the divergence guard when its whole-row
 #: chi-square exceeds this many times the gate: far beyond a wild component, it is a track
@@ -607,12 +622,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 consecutive[sensor[i]] += 1              # the rest can hold a drifting track
                 if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
                         and last_reset != k:
-                    factor = bounded_inflation(P, min(max(reset_inflation,
-                                                          4.0 * val / gate[m]),
-                                                      MAX_RESET_INFLATION))
-                    for a in range(min(n, N_KINEMATIC)):
-                        for b in range(min(n, N_KINEMATIC)):
-                            P[a, b] *= factor
+                    reset_covariance(P, min(max(reset_inflation, 4.0 * val / gate[m]),
+                                            MAX_RESET_INFLATION))
                     consecutive[:] = 0
                     n_resets += 1
                     last_reset = k

@@ -46,7 +46,7 @@ from rangeproc.estimation.forward import (
     EKF,
     MAX_RESET_INFLATION,
     PARTIAL_DIVERGENCE,
-    bounded_inflation,
+    reset_covariance,
     row_moments,
     row_workspace,
     update_row,
@@ -373,10 +373,7 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                     base = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
                                MAX_RESET_INFLATION)
                     for j in range(r):
-                        factor = bounded_inflation(PP[j], base)
-                        for a in range(min(n, N_KINEMATIC)):
-                            for b in range(min(n, N_KINEMATIC)):
-                                PP[j, a, b] *= factor
+                        reset_covariance(PP[j], base)
                     consecutive[:] = 0
                     n_resets += 1
                     last_reset = k

@@ -89,12 +89,15 @@ def dilate_in_time(epoch_t: np.ndarray, values: np.ndarray, span: float) -> np.n
 
 
 def local_process_noise(epoch_t: np.ndarray, em: np.ndarray, *, window: float = 2.0,
-                        floor: float = 1e-3) -> np.ndarray:
+                        floor: float = 1e-3, ceiling: float = np.inf) -> np.ndarray:
     """(E,) q per step from the EM statistic ``em`` (E,), over a ``window`` (s) in time.
 
     ``q_k = sum(em) / sum(dt)`` over the steps within +-window/2 of step k, then dilated by a
     running maximum over the same span so a manoeuvre's onset is covered from its start, and
-    floored at ``floor`` m^2/s^5.
+    kept within [``floor``, ``ceiling``] m^2/s^5. The ceiling (the largest q the likelihood
+    search considers) stops a feedback: a pass that lost its object smooths a wild track
+    whose EM statistic, unbounded, let the next pass's covariance grow to 1e37 m between
+    plots it then could no longer gate.
     """
     E = len(epoch_t)
     if E < 2:
@@ -106,4 +109,4 @@ def local_process_noise(epoch_t: np.ndarray, em: np.ndarray, *, window: float = 
     hi = np.searchsorted(epoch_t, epoch_t + 0.5 * window, side="right")
     span = cs_dt[hi] - cs_dt[lo]
     q = np.where(span > 0, (cs_em[hi] - cs_em[lo]) / np.maximum(span, 1e-12), floor)
-    return np.maximum(dilate_in_time(epoch_t, q, window), floor)
+    return np.clip(dilate_in_time(epoch_t, q, window), floor, ceiling)

@@ -521,6 +521,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         """The refinement passes from the pass in ``box`` (taken out of it), constrained to
         ``rho`` when given."""
         out, b, qq, noise, cal = box.pop(), batch, q, {}, None
+        q_used = q
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
             if settings.refraction is not None and p == 0:   # geometry of the first pass
@@ -538,11 +539,23 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
             if settings.process_noise is None and out.em is not None:
-                qq = local_process_noise(epoch_t, out.em, window=settings.q_window)
+                qq = local_process_noise(epoch_t, out.em, window=settings.q_window,
+                                         ceiling=max(settings.q_grid))
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
+            before, q_before = out, q_used
             out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
+            q_used = qq
             tick(1, f"pass {p + 2}")
-        return out, qq, noise, why, cal
+            if rho is None and out.resets > before.resets:   # it lost the object: keep the
+                # pass before (a constrained pass is judged by constraint_agrees instead)
+                log.warning("pass %d: the divergence guard fired %d times against %d in the "
+                            "pass it refines; that pass is kept", p + 2, out.resets,
+                            before.resets)
+                out, q_used = before, q_before
+                if p + 1 < settings.noise_passes:
+                    tick(settings.noise_passes - p - 1, "")
+                break
+        return out, q_used, noise, why, cal
 
     out, q, noise, why, cal = refine(box, rho)
     if again:

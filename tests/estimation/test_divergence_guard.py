@@ -46,3 +46,63 @@ def test_thousands_of_rejected_rows_at_one_epoch_reset_once_and_smooth() -> None
     xs, Ps, _ = rts_smooth(epoch_t, xf, Pf, np.full(epoch_t.size, 1.0), True, False)
     assert np.isfinite(xs).all()
     assert abs(xs[-1, 0] - 100.0 * epoch_t[-1]) < 5.0
+
+
+def _radar_pass(x0: np.ndarray, P0: np.ndarray, seconds: float = 60.0):
+    """A 20 Hz range/azimuth/elevation/range-rate radar at the origin on a target 30 km out
+    flying 250 m/s east; returns (epoch_t, truth (E, 9), filtered states (E, 9), resets)."""
+    from rangeproc.models.measurement import SPHERICAL, measure_py
+
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, seconds, 0.05)
+    truth = np.zeros((t.size, 9))
+    truth[:, 0] = -3000.0 + 250.0 * t
+    truth[:, 1] = 30_000.0
+    truth[:, 2] = 6000.0
+    truth[:, 3] = 250.0
+    a = empty_rows(t.size, SPHERICAL)
+    sig = np.array([10.0, 5e-4, 5e-4, 0.2])
+    for i in range(t.size):
+        h, _ = measure_py(SPHERICAL, truth[i], a["s"][i], a["sv"][i], a["Qr"][i])
+        a["z"][i, :4] = h[:4] + rng.normal(0.0, sig)
+    a["sigma"][:, :4] = sig
+    meas_epoch = np.arange(t.size, dtype=np.int64)
+    gate = np.full(7, np.inf)
+    gate[1:] = [15.1, 18.4, 21.1, 23.5, 25.7, 27.9]
+    xf, Pf, nis, dof, rej, ll, n_resets, *_ = kalman_forward(
+        t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
+        np.zeros(t.size, np.int64), x0, P0, np.full(t.size, 1.0), gate, 50, 100.0,
+        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0,
+        False, 0.0, NO_FADING, NO_SPLINE)
+    return t, truth, xf, n_resets
+
+
+def test_a_track_started_on_the_wrong_line_of_sight_is_recovered() -> None:
+    """Started 15 degrees (8 km) off in azimuth with a confident, correlated covariance (a
+    track that coasted through a manoeuvre): the accepted range, elevation and range rate used to
+    hold it there while every azimuth was rejected, for ever. The reset drops the stale
+    correlations and opens each state to its ceiling, and the radar re-acquires."""
+    x0 = np.zeros(9)
+    bearing = np.radians(15.0)                       # rotate the true start about the radar
+    c, s = np.cos(bearing), np.sin(bearing)
+    x0[0], x0[1] = c * -3000.0 - s * 30_000.0, s * -3000.0 + c * 30_000.0
+    x0[2], x0[3] = 6000.0, 250.0
+    A = np.random.default_rng(2).normal(size=(9, 9))
+    P0 = 0.5 * (A @ A.T) + np.diag([400.0] * 3 + [100.0] * 3 + [1.0] * 3)
+    t, truth, xf, n_resets = _radar_pass(x0, P0)
+    assert n_resets >= 1
+    err = np.linalg.norm(xf[:, :3] - truth[:, :3], axis=1)
+    assert err[t > 30.0].max() < 50.0
+
+
+def test_the_local_process_noise_stays_below_its_ceiling() -> None:
+    """A pass that lost its object smooths a wild track; its EM statistic must not become
+    the next pass's process noise unbounded."""
+    from rangeproc.estimation.tuning import local_process_noise
+
+    t = np.arange(0.0, 100.0, 0.1)
+    em = np.full(t.size, 1e-2)
+    em[500:520] = 1e20
+    q = local_process_noise(t, em, ceiling=1e5)
+    assert q.max() == 1e5
+    assert np.isclose(np.median(q), 0.1)

@@ -193,11 +193,31 @@ def test_schur_solution_equals_the_dense_least_squares():
 
 
 def test_the_divergence_guard_never_inflates_beyond_its_ceilings() -> None:
-    from rangeproc.estimation.forward import RESET_CEILING, bounded_inflation
+    from rangeproc.estimation.forward import RESET_CEILING, reset_covariance
 
     P = np.diag(np.r_[np.full(3, 1e2), np.full(3, 1.0), np.full(3, 0.1)])
-    assert bounded_inflation(P, 100.0) == 100.0                 # far below the ceilings
-    f = bounded_inflation(P, 1e6)
-    assert (np.diag(P)[:3] * f).max() <= RESET_CEILING[0] ** 2 * (1 + 1e-12)
+    reset_covariance(P, 100.0)                                  # far below the ceilings
+    np.testing.assert_allclose(np.diag(P), np.r_[np.full(3, 1e4), np.full(3, 1e2),
+                                                 np.full(3, 10.0)])
+    P = np.diag(np.r_[np.full(3, 1e2), np.full(3, 1.0), np.full(3, 0.1)])
+    reset_covariance(P, 1e6)                                    # each state to its ceiling
+    np.testing.assert_allclose(np.diag(P), np.repeat(np.square(RESET_CEILING), 3))
     huge = np.diag(np.r_[np.full(3, 1e12), np.ones(6)])
-    assert bounded_inflation(huge, 1e6) == 1.0                  # already there: no growth
+    reset_covariance(huge, 1e6)
+    assert huge[0, 0] == 1e12                                   # already there: no growth
+    assert huge[3, 3] == RESET_CEILING[1] ** 2                  # the others still grow
+
+
+def test_the_divergence_reset_drops_the_kinematic_correlations() -> None:
+    """After a reset a position fix must not turn into a velocity error through the
+    coasting model's position-velocity correlation; calibration states keep their block."""
+    from rangeproc.estimation.forward import reset_covariance
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(11, 11))
+    P = A @ A.T + 11 * np.eye(11)
+    cal = P[9:, 9:].copy()
+    reset_covariance(P, 100.0)
+    assert np.count_nonzero(P[:9, :] - np.diag(np.diag(P))[:9, :]) == 0
+    np.testing.assert_array_equal(P[9:, 9:], cal)
+    assert np.all(np.linalg.eigvalsh(P) > 0)
