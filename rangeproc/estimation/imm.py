@@ -54,7 +54,6 @@ from rangeproc.estimation.forward import (
 from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import pack
 from rangeproc.models.measurement import N_COMPONENTS
-from rangeproc.models.motion import N_KINEMATIC
 from rangeproc.settings import IMM_MODELS
 
 CV, CA, CT = 0, 1, 2
