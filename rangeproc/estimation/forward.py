@@ -161,6 +161,129 @@ def ekf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np
             Z[b, a] = acc
 
 
+#: A row's linearisation variance is worked out only where its cheap upper bound exceeds
+#: this share of the row's own variance (elsewhere it is negligible and the row unchanged).
+LIN_NOISE_SHARE = 1e-3
+#: ... and never exceeds this sigma (rad): uncapped, a track whose covariance had grown to
+#: 1e8 m got rows inflated until they carried nothing, so the covariance stayed there. A
+#: measured trade-off (README, "Several objects"): 0.3 mrad let a near-zenith pass diverge
+#: again, 10 mrad kept a theodolite's 15 s angle-only start from pinning its track.
+LIN_NOISE_CAP = 1e-3
+
+
+@njit(cache=True, error_model="numpy")
+def _half_trace_square(H2: np.ndarray, Pd: np.ndarray, M: np.ndarray) -> float:
+    """``1/2 tr((H2 Pd)^2)`` of two (3, 3) matrices (``M`` a (3, 3) workspace)."""
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for c in range(3):
+                acc += H2[a, c] * Pd[c, b]
+            M[a, b] = acc
+    acc = 0.0
+    for a in range(3):
+        for b in range(3):
+            acc += M[a, b] * M[b, a]
+    return 0.5 * acc
+
+
+@njit(cache=True, error_model="numpy")
+def _elevation_gradient(d0: float, d1: float, d2: float, g: np.ndarray) -> None:
+    """Gradient of ``atan2(d2, hypot(d0, d1))`` with respect to ``d`` into ``g`` (3,)."""
+    rho = max(math.sqrt(d0 * d0 + d1 * d1), 1e-12)
+    r2 = max(rho * rho + d2 * d2, 1e-12)
+    g[0] = -d0 * d2 / (r2 * rho)
+    g[1] = -d1 * d2 / (r2 * rho)
+    g[2] = rho / r2
+
+
+@njit(cache=True, error_model="numpy")
+def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m: int,
+                            x: np.ndarray, s: np.ndarray, Qr: np.ndarray,
+                            P: np.ndarray) -> None:
+    """Widen a radar/theodolite row's sigmas ``sig_row[:m]`` (components ``idx[:m]``) by the
+    error of the EKF's first-order expansion, in place.
+
+    The second-order term of a component ``h`` about the prediction has variance
+    ``1/2 tr((H2 P_d)^2)`` for a Gaussian prior (``H2`` the Hessian of ``h`` in the sensor's
+    frame ``d = Qr (p - s)``, ``P_d = Qr P_pos Qr^T``): azimuth the Hessian of
+    ``atan2(d0, d1)`` (eigenvalues +-1/rho^2 in the horizontal plane), elevation by central
+    differences of its gradient; at most :data:`LIN_NOISE_CAP` in sigma. Negligible on a
+    converged track (1 m at 10 km: 1e-16 rad^2; it is not even evaluated below
+    :data:`LIN_NOISE_SHARE` of the row's variance); where the prior is wide against the
+    range (a target passing near a theodolite's zenith with a 200 m prior, 1.2 km away
+    horizontally: some 0.03 rad against an 80 urad sigma) it keeps the precise angles from pulling the track by an expansion
+    that no longer holds, which made the track diverge to thousands of kilometres.
+
+    Only for rows without a range (a theodolite, a radar row whose range failed): a row with
+    a range fixes the position by itself and its first update removes the expansion's
+    error; inflating it instead kept a track that had lost its object kilometres off for
+    40 s where the process noise was high (a manoeuvre), so radar rows are left as they are.
+    """
+    if model != SPHERICAL or (m > 0 and idx[0] == 0):  # angle-only rows (see above)
+        return
+    p0 = x[0] - s[0]
+    p1 = x[1] - s[1]
+    p2 = x[2] - s[2]
+    d0 = Qr[0, 0] * p0 + Qr[0, 1] * p1 + Qr[0, 2] * p2
+    d1 = Qr[1, 0] * p0 + Qr[1, 1] * p1 + Qr[1, 2] * p2
+    d2 = Qr[2, 0] * p0 + Qr[2, 1] * p1 + Qr[2, 2] * p2
+    rho2 = max(d0 * d0 + d1 * d1, 1e-6)
+    r2 = max(rho2 + d2 * d2, 1e-6)
+    tr = P[0, 0] + P[1, 1] + P[2, 2]              # bounds every eigenvalue of P_pos
+    wanted = False
+    for a in range(m):
+        c = idx[a]
+        bound = (tr / rho2) ** 2 if c == 1 or c == 2 else 0.0   # |H2| <= 1/rho^2 for both
+        wanted = wanted or bound > LIN_NOISE_SHARE * sig_row[a] * sig_row[a]
+    if not wanted:
+        return
+    Pd = np.empty((3, 3))
+    T = np.empty((3, 3))
+    H2 = np.zeros((3, 3))
+    M = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for c in range(3):
+                acc += Qr[a, c] * P[c, b]
+            T[a, b] = acc
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for c in range(3):
+                acc += T[a, c] * Qr[b, c]
+            Pd[a, b] = acc
+    r = math.sqrt(r2)
+    for a in range(m):
+        c = idx[a]
+        if c == 1:
+            q = rho2 * rho2
+            H2[:, :] = 0.0
+            H2[0, 0] = -2.0 * d0 * d1 / q
+            H2[1, 1] = 2.0 * d0 * d1 / q
+            H2[0, 1] = (d0 * d0 - d1 * d1) / q
+            H2[1, 0] = H2[0, 1]
+        elif c == 2:
+            step = 1e-4 * r
+            gp = np.empty(3)
+            gm = np.empty(3)
+            for j in range(3):
+                e0 = step if j == 0 else 0.0
+                e1 = step if j == 1 else 0.0
+                e2 = step if j == 2 else 0.0
+                _elevation_gradient(d0 + e0, d1 + e1, d2 + e2, gp)
+                _elevation_gradient(d0 - e0, d1 - e1, d2 - e2, gm)
+                for i in range(3):
+                    H2[i, j] = (gp[i] - gm[i]) / (2.0 * step)
+        else:
+            continue
+        extra = _half_trace_square(H2, Pd, M)
+        extra = min(extra, LIN_NOISE_CAP * LIN_NOISE_CAP)
+        if extra > 0.0:
+            sig_row[a] = math.sqrt(sig_row[a] * sig_row[a] + extra)
+
+
 @njit(cache=True, error_model="numpy")
 def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                 x: np.ndarray, P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray,
@@ -586,6 +709,8 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             for a in range(m):
                 sig_row[a] = sigma[i, idx[a]]
                 y_raw[a] = y[a]
+            if method == EKF:
+                add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
             if adapt:
                 sh_adapt(sensor[i], idx, m, sig_row, y, sh_count, sh_acc, adapt_window,
                          adapt_mean)

@@ -46,6 +46,7 @@ from rangeproc.estimation.forward import (
     EKF,
     MAX_RESET_INFLATION,
     PARTIAL_DIVERGENCE,
+    add_linearisation_noise,
     reset_covariance,
     row_moments,
     row_workspace,
@@ -342,9 +343,10 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
             if m == 0:
                 i += 1
                 continue
-            for a in range(m):
-                sig_row[a] = sigma[i, idx[a]]
             for j in range(r):
+                for a in range(m):
+                    sig_row[a] = sigma[i, idx[a]]
+                add_linearisation_noise(model[i], sig_row, idx, m, X[j], s[i], Qr[i], PP[j])
                 row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
                             x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L, Zs,
                             xsig, h, H, y6, y, C, Z, Hs)
