@@ -212,8 +212,9 @@ def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m:
     converged track (1 m at 10 km: 1e-16 rad^2; it is not even evaluated below
     :data:`LIN_NOISE_SHARE` of the row's variance); where the prior is wide against the
     range (a target passing near a theodolite's zenith with a 200 m prior, 1.2 km away
-    horizontally: some 0.03 rad against an 80 urad sigma) it keeps the precise angles from pulling the track by an expansion
-    that no longer holds, which made the track diverge to thousands of kilometres.
+    horizontally: some 0.03 rad against an 80 urad sigma) it keeps the precise angles from
+    pulling the track by an expansion that no longer holds, which made the track diverge to
+    thousands of kilometres.
 
     Only for rows without a range (a theodolite, a radar row whose range failed): a row with
     a range fixes the position by itself and its first update removes the expansion's
