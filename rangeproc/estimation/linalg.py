@@ -35,6 +35,18 @@ def unpack(p: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
+def unpack_many(Ps: np.ndarray, n: int) -> np.ndarray:
+    """Unpack (K, n(n+1)/2) packed covariances (:func:`pack`'s row-by-row lower triangle)
+    into (K, n, n) at once (numpy; the per-epoch :func:`unpack` called from Python cost
+    ~1 us a call, 0.4 s on a 30-minute scenario of 18 objects)."""
+    Ps = np.asarray(Ps, dtype=np.float64)
+    i, j = np.tril_indices(n)
+    out = np.empty((Ps.shape[0], n, n))
+    out[:, i, j] = Ps
+    out[:, j, i] = Ps
+    return out
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     """Lower Cholesky factor of the leading (m, m) block of ``S``, in place. False if not PD."""

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.estimation.linalg import unpack
+from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.centralised import FusionResult
@@ -13,10 +13,7 @@ from rangeproc.results import SensorResiduals, TrackEstimate
 
 def grid_covariances(Ps: np.ndarray, n: int) -> np.ndarray:
     """Unpack (K, n(n+1)/2) packed covariances into (K, n, n)."""
-    out = np.empty((Ps.shape[0], n, n))
-    for k in range(Ps.shape[0]):
-        unpack(Ps[k], out[k])
-    return out
+    return unpack_many(Ps, n)
 
 
 def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rangeproc.estimation.linalg import unpack
+from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior
@@ -56,10 +56,7 @@ class Segment:
 def object_track(result: FusionResult) -> ObjectTrack:
     """The output-grid epochs of a fused result as an :class:`ObjectTrack`."""
     g = result.grid
-    n = result.xs.shape[1]
-    P = np.empty((int(g.sum()), n, n))
-    for k, packed in enumerate(result.Ps[g]):
-        unpack(packed, P[k])
+    P = unpack_many(result.Ps[g], result.xs.shape[1])
     return ObjectTrack(np.ascontiguousarray(result.epoch_t[g]),
                        np.ascontiguousarray(result.xs[g][:, :9]),
                        np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))

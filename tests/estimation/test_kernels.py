@@ -48,3 +48,21 @@ def test_cholesky_solve_and_packing():
     np.testing.assert_allclose(back, S, rtol=0, atol=1e-15)
     notpd = -np.eye(3)
     assert not cholesky_inplace(notpd, 3)
+
+
+def test_unpacking_many_equals_unpacking_one_by_one():
+    from rangeproc.estimation.linalg import unpack_many
+
+    rng = np.random.default_rng(4)
+    n, K = 12, 7
+    full = np.empty((K, n, n))
+    packed = np.empty((K, n * (n + 1) // 2))
+    for k in range(K):
+        A = rng.normal(size=(n, n))
+        full[k] = A @ A.T
+        pack(full[k], packed[k])
+    one = np.empty((K, n, n))
+    for k in range(K):
+        unpack(packed[k], one[k])
+    np.testing.assert_array_equal(unpack_many(packed, n), one)
+    np.testing.assert_allclose(one, full, rtol=1e-15, atol=1e-12)
