@@ -555,6 +555,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 if p + 1 < settings.noise_passes:
                     tick(settings.noise_passes - p - 1, "")
                 break
+            del before      # the refined-away pass's arrays go now, not after the next
+            #                 pass's registration (on the 2M-row sortie: 0.45 GB of peak)
         return out, q_used, noise, why, cal
 
     out, q, noise, why, cal = refine(box, rho)
