@@ -172,14 +172,20 @@ LIN_NOISE_CAP = 1e-3
 
 
 @njit(cache=True, error_model="numpy")
-def _half_trace_square(H2: np.ndarray, Pd: np.ndarray, M: np.ndarray) -> float:
-    """``1/2 tr((H2 Pd)^2)`` of two (3, 3) matrices (``M`` a (3, 3) workspace)."""
+def _mul3(A: np.ndarray, B: np.ndarray, out: np.ndarray, b_transposed: bool) -> None:
+    """``out = A B`` (or ``A B^T``) of the leading (3, 3) blocks."""
     for a in range(3):
         for b in range(3):
             acc = 0.0
             for c in range(3):
-                acc += H2[a, c] * Pd[c, b]
-            M[a, b] = acc
+                acc += A[a, c] * (B[b, c] if b_transposed else B[c, b])
+            out[a, b] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def _half_trace_square(H2: np.ndarray, Pd: np.ndarray, M: np.ndarray) -> float:
+    """``1/2 tr((H2 Pd)^2)`` of two (3, 3) matrices (``M`` a (3, 3) workspace)."""
+    _mul3(H2, Pd, M, False)
     acc = 0.0
     for a in range(3):
         for b in range(3):
@@ -243,18 +249,8 @@ def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m:
     T = np.empty((3, 3))
     H2 = np.zeros((3, 3))
     M = np.empty((3, 3))
-    for a in range(3):
-        for b in range(3):
-            acc = 0.0
-            for c in range(3):
-                acc += Qr[a, c] * P[c, b]
-            T[a, b] = acc
-    for a in range(3):
-        for b in range(3):
-            acc = 0.0
-            for c in range(3):
-                acc += T[a, c] * Qr[b, c]
-            Pd[a, b] = acc
+    _mul3(Qr, P, T, False)                           # P_d = Qr P_pos Qr^T
+    _mul3(T, Qr, Pd, True)
     r = math.sqrt(r2)
     for a in range(m):
         c = idx[a]
