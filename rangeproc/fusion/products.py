@@ -11,11 +11,6 @@ from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 
-def grid_covariances(Ps: np.ndarray, n: int) -> np.ndarray:
-    """Unpack (K, n(n+1)/2) packed covariances into (K, n, n)."""
-    return unpack_many(Ps, n)
-
-
 def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
                       sensor_used: np.ndarray) -> np.ndarray:
     """(K,) distinct sensors with a used row in [t - T/2, t + T/2) around each grid epoch."""
@@ -63,7 +58,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
-    P = grid_covariances(result.Ps[result.grid], n)[:, :9, :9]
+    P = unpack_many(result.Ps[result.grid], n)[:, :9, :9]
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)

@@ -53,8 +53,8 @@ def test_boost_and_dogleg_stay_inside_three_sigma():
     err = res.xs[g, :3] - truth
     n = res.xs.shape[1]
     sig = np.empty((g.sum(), 3))
-    from rangeproc.fusion.products import grid_covariances
-    P = grid_covariances(res.Ps[g], n)
+    from rangeproc.estimation.linalg import unpack_many
+    P = unpack_many(res.Ps[g], n)
     sig[:] = np.sqrt(np.diagonal(P, axis1=1, axis2=2)[:, :3])
     inside = (np.abs(err) <= 3 * sig).mean(axis=0)
     assert inside.min() > 0.9, inside
