@@ -42,16 +42,13 @@ import math
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.forward import (
-    EKF,
+from rangeproc.estimation.divergence import (
     MAX_RESET_INFLATION,
     PARTIAL_DIVERGENCE,
-    add_linearisation_noise,
     reset_covariance,
-    row_moments,
-    row_workspace,
-    update_row,
 )
+from rangeproc.estimation.forward import row_workspace, update_row
+from rangeproc.estimation.moments import EKF, add_linearisation_noise, row_moments
 from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import pack
 from rangeproc.models.measurement import N_COMPONENTS

@@ -3,13 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.estimation.forward import (
-    EKF,
-    MAX_RESET_INFLATION,
-    NO_FADING,
-    NO_SPLINE,
-    kalman_forward,
-)
+from rangeproc.estimation.divergence import MAX_RESET_INFLATION
+from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rangeproc.estimation.forward import LIN_NOISE_CAP, add_linearisation_noise
+from rangeproc.estimation.moments import LIN_NOISE_CAP, add_linearisation_noise
 from rangeproc.models.measurement import SPHERICAL, measure_py
 
 

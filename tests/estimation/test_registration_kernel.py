@@ -193,7 +193,7 @@ def test_schur_solution_equals_the_dense_least_squares():
 
 
 def test_the_divergence_guard_never_inflates_beyond_its_ceilings() -> None:
-    from rangeproc.estimation.forward import RESET_CEILING, reset_covariance
+    from rangeproc.estimation.divergence import RESET_CEILING, reset_covariance
 
     P = np.diag(np.r_[np.full(3, 1e2), np.full(3, 1.0), np.full(3, 0.1)])
     reset_covariance(P, 100.0)                                  # far below the ceilings
@@ -211,7 +211,7 @@ def test_the_divergence_guard_never_inflates_beyond_its_ceilings() -> None:
 def test_the_divergence_reset_drops_the_kinematic_correlations() -> None:
     """After a reset a position fix must not turn into a velocity error through the
     coasting model's position-velocity correlation; calibration states keep their block."""
-    from rangeproc.estimation.forward import reset_covariance
+    from rangeproc.estimation.divergence import reset_covariance
 
     rng = np.random.default_rng(3)
     A = rng.normal(size=(11, 11))
