@@ -137,20 +137,25 @@ class _Track:
     rows: list[int] = field(default_factory=list)
 
 
-def _predict(tr: _Track, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """CV prediction of ``tr`` to times ``t`` (A,): states (A, 6), covariances (A, 6, 6)."""
-    dt = np.asarray(t, dtype=float) - tr.t
-    a = dt.size
-    F = np.broadcast_to(np.eye(6), (a, 6, 6)).copy()
+def _predict(x: np.ndarray, P: np.ndarray, t_track: np.ndarray, t: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """CV prediction of L tracks to times ``t`` (A,): states x (L, 6) and covariances
+    P (L, 6, 6) at their times ``t_track`` (L,) s -> states (L, A, 6), covariances
+    (L, A, 6, 6)."""
+    dt = np.asarray(t, dtype=float)[None, :] - np.asarray(t_track, dtype=float)[:, None]
+    shape = dt.shape
+    F = np.broadcast_to(np.eye(6), (*shape, 6, 6)).copy()
     for k in range(3):
-        F[:, k, k + 3] = dt
+        F[..., k, k + 3] = dt
     q = ACCELERATION_PSD
-    Q = np.zeros((a, 6, 6))
+    Q = np.zeros((*shape, 6, 6))
     for k in range(3):
-        Q[:, k, k] = q * np.abs(dt) ** 3 / 3
-        Q[:, k, k + 3] = Q[:, k + 3, k] = q * dt * np.abs(dt) / 2
-        Q[:, k + 3, k + 3] = q * np.abs(dt)
-    return F @ tr.x, F @ tr.P @ np.transpose(F, (0, 2, 1)) + Q
+        Q[..., k, k] = q * np.abs(dt) ** 3 / 3
+        Q[..., k, k + 3] = Q[..., k + 3, k] = q * dt * np.abs(dt) / 2
+        Q[..., k + 3, k + 3] = q * np.abs(dt)
+    xp = np.einsum("laij,lj->lai", F, x)
+    Pp = F @ P[:, None] @ np.swapaxes(F, -1, -2) + Q
+    return xp, Pp
 
 
 def _start(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> _Track:
@@ -188,23 +193,21 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
     for rows in np.split(order, bounds):
         k = int(scan[rows[0]])
         cost = np.full((rows.size, len(live)), np.inf)
-        preds = []
-        for j, tr in enumerate(live):
-            x, P = _predict(tr, t[rows])
-            preds.append((x, P))
-            S = P[:, :3, :3] + R[rows]
-            d = p[rows] - x[:, :3]
-            m2 = np.einsum("ai,ai->a", d, np.linalg.solve(S, d[:, :, None])[:, :, 0])
-            ok = m2 <= gate
-            cost[ok, j] = m2[ok] + np.linalg.slogdet(S[ok])[1]
+        if live:                                     # every live track against every plot
+            xs, Ps = _predict(np.stack([tr.x for tr in live]), np.stack([tr.P for tr in live]),
+                              np.array([tr.t for tr in live]), t[rows])
+            S = Ps[:, :, :3, :3] + R[rows][None]
+            d = p[rows][None] - xs[:, :, :3]
+            m2 = np.einsum("lai,lai->la", d, np.linalg.solve(S, d[..., None])[..., 0])
+            ok = (m2 <= gate).T                      # (A, L)
+            cost[ok] = (m2 + np.linalg.slogdet(S)[1]).T[ok]
         taken = np.zeros(rows.size, dtype=bool)
         if live and rows.size:
             big = 1e12
             a_idx, j_idx = linear_sum_assignment(np.where(np.isfinite(cost), cost, big))
             for a, j in zip(a_idx, j_idx):
                 if np.isfinite(cost[a, j]):
-                    x, P = preds[j][0][a], preds[j][1][a]
-                    _update(live[j], x, P, p[rows[a]], R[rows[a]], t[rows[a]], k,
+                    _update(live[j], xs[j, a], Ps[j, a], p[rows[a]], R[rows[a]], t[rows[a]], k,
                             int(rows[a]))
                     taken[a] = True
         for tr in live:
