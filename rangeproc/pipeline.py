@@ -40,6 +40,7 @@ from rangeproc.io.output import fused_table
 from rangeproc.io.readers import read_sensor
 from rangeproc.io.writers import file_sha256, write_json, write_parquet
 from rangeproc.models.measurement import COMPONENTS
+from rangeproc.parallel import thread_map
 from rangeproc.progress import StageClock
 from rangeproc.results import SensorResiduals, TrackEstimate
 from rangeproc.tracking.routing import (
@@ -142,6 +143,45 @@ def _needs_initial(cfg: Config, target_id: str, why: str) -> DataError:
         "sigma_velocity = 5.0 }")
 
 
+def fuse_objects(cfg: Config, parts_of: dict, sensor_ids: tuple[str, ...],
+                 settings: EstimatorSettings, priors: dict[str, Prior],
+                 tick: Callable[..., None]) -> list[tuple[str, FusionResult]]:
+    """Stage 4: the centralised smoother over every object's rows, objects side by side in
+    threads (``rangeproc.parallel``; the results do not depend on the thread count).
+
+    parts_of: object id -> its row parts (emptied as objects are handed out); returns
+    (object id, result) in ``parts_of``'s order, leaving out objects without measurements or
+    (undeclared ones) without a position fix. A declared target without a position fix is an
+    exit-2 error."""
+    order = list(parts_of)
+    jobs = []
+    for oid in order:
+        parts = parts_of.pop(oid)
+        if not parts:
+            log.warning("target %s: no measurements", oid)
+            tick(1 + settings.noise_passes, oid)
+        else:
+            jobs.append((oid, parts))
+
+    def fuse_one(oid: str, parts: list) -> FusionResult | None:
+        batch = merge(parts, sensor_ids)
+        parts.clear()
+        try:
+            return fuse_target(batch, cfg.output.rate_hz, settings,
+                               tick=lambda n=1, note="", t=oid: tick(n, f"{t} {note}"),
+                               prior=priors.get(oid))
+        except NoPositionFix as exc:
+            if oid in priors:
+                raise _needs_initial(cfg, oid, str(exc)) from None
+            log.warning("object %s left out: %s", oid, exc)
+            return None
+
+    results = dict(zip([oid for oid, _ in jobs],
+                       thread_map(lambda job: fuse_one(*job), jobs,
+                                  cost=lambda job: sum(len(rows.t) for _, rows in job[1]))))
+    return [(oid, results[oid]) for oid in order if results.get(oid) is not None]
+
+
 def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
                  tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, Assembled]:
     """Stage 2: measurement rows with geometry for every non-INS sensor."""
@@ -215,7 +255,6 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                "n_edited": edits.counts(s.id), "edit_examples": edits.examples(s.id),
                "n_unstarted": 0} for s in cfg.sensors}
     del raw
-    fused: list[tuple[str, FusionResult]] = []
     n_no_platform = {sid: a.n_no_platform for sid, a in rows.items()}
     sites = _sites(cfg, frame, rows)
     priors = {tgt.id: target_prior(tgt, frame) for tgt in cfg.targets}
@@ -225,24 +264,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     stray = stray_points(cfg, rows, synthesis)
     rows.clear()                                     # the object parts hold the data now
     with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
-        for oid in list(parts_of):
-            parts = parts_of.pop(oid)
-            if not parts:
-                log.warning("target %s: no measurements", oid)
-                tick(1 + settings.noise_passes, oid)
-                continue
-            batch = merge(parts, sensor_ids)
-            del parts
-            try:
-                fused.append((oid, fuse_target(
-                    batch, cfg.output.rate_hz, settings,
-                    tick=lambda n=1, note="", t=oid: tick(n, f"{t} {note}"),
-                    prior=priors.get(oid))))
-            except NoPositionFix as exc:
-                if oid in priors:
-                    raise _needs_initial(cfg, oid, str(exc)) from None
-                log.warning("object %s left out: %s", oid, exc)
-            del batch
+        fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.max_gap)

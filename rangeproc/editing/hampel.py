@@ -90,7 +90,7 @@ def _median(buf: np.ndarray, n: int) -> float:
     return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def hampel_flags(t: np.ndarray, x: np.ndarray, half_width: int, threshold: float,
                  floor: float) -> np.ndarray:
     """(N,) bool: the wild values of one series (module docstring).

@@ -26,7 +26,7 @@ MAX_RESET_INFLATION = 1e6
 RESET_CEILING = (1.0e4, 1.0e3, 1.0e2)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def reset_covariance(P: np.ndarray, factor: float) -> None:
     """The divergence guard's reset of ``P`` (n, n) in place: every kinematic variance
     multiplied by ``factor`` but not beyond its ``RESET_CEILING`` (one that is already beyond

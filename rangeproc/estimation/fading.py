@@ -146,7 +146,7 @@ def apply_fading(P: np.ndarray, lam: np.ndarray, dt: float, q: float) -> None:
     add_q(P, dt, q)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                       sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                       x: np.ndarray, P: np.ndarray, gate: np.ndarray, G: np.ndarray,

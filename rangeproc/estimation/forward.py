@@ -236,7 +236,7 @@ def update_row(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
     return val, ok, n_acc, mask, ll
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                    z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
                    Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,

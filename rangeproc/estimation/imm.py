@@ -63,7 +63,7 @@ MAX_TURN_RATE = 0.5
 MIN_TURN_SPEED = 1.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def turn_rate(x: np.ndarray) -> float:
     """``omega = (v_e a_n - v_n a_e) / |v_h|^2`` (rad/s) of state ``x``, bounded."""
     ve, vn, ae, an = x[3], x[4], x[6], x[7]
@@ -74,7 +74,7 @@ def turn_rate(x: np.ndarray) -> float:
     return min(max(w, -MAX_TURN_RATE), MAX_TURN_RATE)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
                    Q: np.ndarray) -> None:
     """Transition ``F`` (n, n) and process noise ``Q`` (n, n) of one model over ``dt`` (s).
@@ -129,7 +129,7 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
         F[7, 3], F[7, 4] = w * c, -w * s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def switch_matrix(Lam: np.ndarray, dt: float, out: np.ndarray, work: np.ndarray) -> None:
     """``out = expm(Lam dt)`` (r, r) by scaling and squaring a 12-term Taylor series; rows are
     renormalised to sum to one (a stochastic matrix up to rounding). ``work`` (2, r, r)."""
@@ -233,7 +233,7 @@ def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.
                 out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
                 Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,

@@ -13,7 +13,7 @@ from rangeproc.estimation.imm import combine, model_matrices, switch_matrix
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarray,
                omega: np.ndarray, q_steps: np.ndarray, codes: np.ndarray, Lam: np.ndarray,
                prune: float):

@@ -78,7 +78,7 @@ LIN_NOISE_SHARE = 1e-3
 LIN_NOISE_CAP = 1e-3
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _mul3(A: np.ndarray, B: np.ndarray, out: np.ndarray, b_transposed: bool) -> None:
     """``out = A B`` (or ``A B^T``) of the leading (3, 3) blocks."""
     for a in range(3):
@@ -89,7 +89,7 @@ def _mul3(A: np.ndarray, B: np.ndarray, out: np.ndarray, b_transposed: bool) -> 
             out[a, b] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _half_trace_square(H2: np.ndarray, Pd: np.ndarray, M: np.ndarray) -> float:
     """``1/2 tr((H2 Pd)^2)`` of two (3, 3) matrices (``M`` a (3, 3) workspace)."""
     _mul3(H2, Pd, M, False)
@@ -100,7 +100,7 @@ def _half_trace_square(H2: np.ndarray, Pd: np.ndarray, M: np.ndarray) -> float:
     return 0.5 * acc
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _elevation_gradient(d0: float, d1: float, d2: float, g: np.ndarray) -> None:
     """Gradient of ``atan2(d2, hypot(d0, d1))`` with respect to ``d`` into ``g`` (3,)."""
     rho = max(math.sqrt(d0 * d0 + d1 * d1), 1e-12)
@@ -110,7 +110,7 @@ def _elevation_gradient(d0: float, d1: float, d2: float, g: np.ndarray) -> None:
     g[2] = rho / r2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m: int,
                             x: np.ndarray, s: np.ndarray, Qr: np.ndarray,
                             P: np.ndarray) -> None:
@@ -188,7 +188,7 @@ def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m:
             sig_row[a] = math.sqrt(sig_row[a] * sig_row[a] + extra)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                 x: np.ndarray, P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray,
                 L: np.ndarray, Zs: np.ndarray, xs: np.ndarray, h: np.ndarray, H: np.ndarray,

@@ -105,7 +105,7 @@ def row_design(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.
     arow[3, LATENCY_SLOT] = -rate
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
                      t: np.ndarray, model: np.ndarray, z: np.ndarray, weight: np.ndarray,
                      s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, moving_row: np.ndarray,
@@ -178,7 +178,7 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
     return Nxx, Nxc, Ncc, bx, bc, r
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def postfit(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray, t: np.ndarray,
             model: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
             moving_row: np.ndarray, Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,

@@ -9,7 +9,7 @@ from rangeproc.estimation.linalg import unpack
 from rangeproc.models.measurement import N_COMPONENTS, innovation, measure
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                        s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, xs: np.ndarray,
                        Ps: np.ndarray):

@@ -37,7 +37,7 @@ from rangeproc.estimation.spline_filter import add_jerk
 JITTER = (1e-12, 1e-10, 1e-8, 1e-6)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: float,
                        q: float, lam: np.ndarray, faded: bool) -> bool:
     """Recompute ``P_pred = F P_f F^T + Q`` (faded by ``lam`` when ``faded``) and factor it
@@ -66,7 +66,7 @@ def _jittered_cholesky(P_pred: np.ndarray, P_f: np.ndarray, T: np.ndarray, dt: f
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.ndarray,
                want_em: bool = True, in_place: bool = False, fade=None, jerk=None):
     """Smooth filtered states.

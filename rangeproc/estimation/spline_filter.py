@@ -137,7 +137,7 @@ def segment_jerk(x: np.ndarray, a_knot: np.ndarray, span: float, jerk: np.ndarra
         jerk[a] = min(max((x[6 + a] - a_knot[a]) / span, -SPL_MAX_JERK), SPL_MAX_JERK)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def epoch_chi2(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                x: np.ndarray, P: np.ndarray, gate: np.ndarray, G: np.ndarray, L: np.ndarray,

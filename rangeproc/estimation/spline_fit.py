@@ -99,7 +99,7 @@ def _basis(knots: np.ndarray, t: np.ndarray, nder: int) -> tuple[np.ndarray, np.
     return span, bas
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _accumulate(coef, span, bas, model, z, sigma, s, sv, Qr, used, abT, g):
     """Add the rows' whitened Gauss-Newton normal equations at ``coef`` (3 n_coef,) to
     ``abT`` (n, BW+1) (``abT[k, BW+i-k] = N[i, k]``, i <= k) and ``g = J^T W r``; returns chi2.
@@ -139,7 +139,7 @@ def _accumulate(coef, span, bas, model, z, sigma, s, sv, Qr, used, abT, g):
     return chi2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _band_inverse(cb):
     """Band of ``N^-1`` from the upper band Cholesky factor ``cb`` (N = U^T U, LAPACK upper
     form ``cb[bw+i-k, k] = U[i, k]``), same form; O(n bw^2) (Takahashi recurrence from

@@ -38,7 +38,7 @@ def _exp(z: float) -> float:
     return p * p
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def trace_kernel(el: np.ndarray, rng: np.ndarray, r0s: np.ndarray, nss: np.ndarray,
                   pars: np.ndarray, kind: int, steps: int, out: np.ndarray) -> None:
     """Trace every row; ``out[:, k]`` = true elevation, true range, bending, end height,

@@ -43,7 +43,7 @@ COMPONENTS = {
 AZIMUTH = 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def wrap_angle(a: float) -> float:
     """Wrap an angle (rad) to (-pi, pi]."""
     two_pi = 2.0 * math.pi

@@ -19,7 +19,7 @@ from numba import njit
 N_KINEMATIC = 9
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def ca_blocks(dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     """Per-axis blocks (F1, Q1) of the CA model, each (3, 3); Q1 already scaled by ``q``."""
     f1 = np.empty((3, 3))
@@ -47,7 +47,7 @@ def ca_blocks(dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     return f1, q1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def ca_transition(n: int, dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     """Full (n, n) transition F and process noise Q for step ``dt`` (s), ``q`` (m^2/s^5).
 

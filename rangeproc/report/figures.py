@@ -2,7 +2,8 @@
 
 ``write_report`` is the one entry point. Drawing uses matplotlib's object-oriented API on the
 Agg canvas (no pyplot, no global backend switch); style settings are applied in an
-``rc_context`` and restored afterwards. Every PNG is written atomically.
+``rc_context`` and restored afterwards. Every PNG is written atomically. The figures are
+drawn by this process and a forked child side by side (``rangeproc.parallel``).
 """
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
+from rangeproc.parallel import shared_with_child
 from rangeproc.report.calibration import plot_calibration
 from rangeproc.report.common import STYLE, merge_sensors, safe_name, save_figure, time_origin
 from rangeproc.report.consistency import plot_consistency
@@ -54,7 +57,7 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     (several sets of one sensor id, e.g. one per target, are drawn together); sites: sensor /
     station id -> (3,) fixed position or (N, 3) platform track in range ENU metres, drawn on
     the map; calibration: ``summary.json``'s per-sensor ``calibration`` entries (drawn when
-    any); progress: called with a short message before each figure; association: the
+    any); progress: called with a short message as each figure is written; association: the
     ``association.parquet`` table (columns sensor, row, time, target_id, segment, reason);
     stray: (M, 3) range ENU metres of the unassigned / clutter plots, drawn grey in the plan.
 
@@ -71,25 +74,29 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     say = progress or (lambda msg: None)
     views = merge_sensors(residuals)
     t0 = time_origin(tracks, views)
-    written: list[Path] = []
+    jobs: list[tuple[str, Callable[[], Figure]]] = [
+        ("trajectory.png", lambda: plot_trajectory(tracks, sites, t0))]
+    for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
+        jobs.append((name, lambda v=view: plot_residuals(v, t0)))
+    jobs.append(("consistency.png", lambda: plot_consistency(views, t0)))
+    jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0)))
+    if association is not None and len(association):
+        jobs.append(("objects.png", lambda: plot_object_timeline(association, tracks, t0)))
+        jobs.append(("plan.png", lambda: plot_plan(
+            tracks, np.zeros((0, 3)) if stray is None else stray, sites)))
+    if calibration:
+        jobs.append(("calibration.png", lambda: plot_calibration(calibration)))
 
-    def emit(name: str, draw: Callable[[], object]) -> None:
-        say(f"report: {name}")
-        fig = draw()
-        written.append(save_figure(fig, report_dir / name))  # type: ignore[arg-type]
-        log.debug("wrote %s", report_dir / name)
+    def draw(k: int) -> None:
+        name, plot = jobs[k]
+        with matplotlib.rc_context(STYLE):
+            save_figure(plot(), report_dir / name)
 
-    with matplotlib.rc_context(STYLE):
-        emit("trajectory.png", lambda: plot_trajectory(tracks, sites, t0))
-        for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
-            emit(name, lambda v=view: plot_residuals(v, t0))
-        emit("consistency.png", lambda: plot_consistency(views, t0))
-        emit("coverage.png", lambda: plot_coverage(views, tracks, t0))
-        if association is not None and len(association):
-            emit("objects.png", lambda: plot_object_timeline(association, tracks, t0))
-            emit("plan.png", lambda: plot_plan(
-                tracks, np.zeros((0, 3)) if stray is None else stray, sites))
-        if calibration:
-            emit("calibration.png", lambda: plot_calibration(calibration))
+    def done(k: int) -> None:
+        say(f"report: {jobs[k][0]}")
+        log.debug("wrote %s", report_dir / jobs[k][0])
+
+    shared_with_child(draw, len(jobs), done)
+    written = [report_dir / name for name, _ in jobs]
     log.info("report: %d figures in %s", len(written), report_dir)
     return written

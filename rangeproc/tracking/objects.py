@@ -8,7 +8,7 @@ which segments are scored (``tracking.score``).
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -17,6 +17,7 @@ from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior
+from rangeproc.parallel import thread_map
 from rangeproc.tracking.score import ObjectTrack
 
 #: While objects are being discovered, a segment is scored only against objects it overlaps
@@ -100,6 +101,13 @@ class Objects:
         return merge([(i, subset_rows(self.rows[i], spread(np.sort(np.concatenate(sels)),
                                                        QUICK_ROWS_PER_SENSOR)))
                       for i, sels in parts.items()], self.sensor_ids)
+
+    def estimate_many(self, names: Sequence[str]) -> dict[str, bool]:
+        """:meth:`estimate` of each object, side by side in threads (``rangeproc.parallel``);
+        object -> whether it could be started."""
+        names = list(names)
+        return dict(zip(names, thread_map(self.estimate, names,
+                                          cost=lambda n: sum(s.size for _, s in self.members[n]))))
 
     def estimate(self, name: str) -> bool:
         """(Re-)estimate an object's quick trajectory; False when it cannot be started."""

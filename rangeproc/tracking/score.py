@@ -62,7 +62,7 @@ class ObjectTrack:
     q: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
            Po: np.ndarray) -> None:
     """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` into xo, Po."""
@@ -92,7 +92,7 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
     Po[:, :] = FP
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def row_scores(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarray,
                s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, offset: np.ndarray,
                epoch: np.ndarray, ot: np.ndarray, ox: np.ndarray, oP: np.ndarray,

@@ -108,7 +108,7 @@ def _start(x: np.ndarray, P: np.ndarray, z: float, sigma: float, scale: float) -
     P[2, 2] = (DIFFUSE * scale) ** 2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def segment_filter(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, q: np.ndarray,
                    gate: np.ndarray, reset_rows: int, reset_seconds: float,
                    gap_seconds: float) -> tuple[np.ndarray, np.ndarray, float]:

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -49,6 +49,7 @@ from rangeproc.fusion.batch import SensorRows
 from rangeproc.fusion.centralised import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
+from rangeproc.parallel import thread_map
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.objects import (
     Objects,
@@ -161,24 +162,53 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
     return out, clutter, angle_plots
 
 
-def _scored_llr(objects: Objects, seg: Segment, names: list[str], rows: np.ndarray,
-                relay: bool) -> dict[int, np.ndarray]:
-    """Object index -> per-row llr (M,) of the segment's rows ``rows`` against each object
-    whose span it comes within ``BRIDGE_SECONDS`` of (``relay``) or overlaps (not)."""
-    out: dict[int, np.ndarray] = {}
-    batch = as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+def _candidates(objects: Objects, seg: Segment, names: list[str], relay: bool
+                ) -> list[tuple[int, str]]:
+    """(index, name) of the objects whose span the segment comes within ``BRIDGE_SECONDS`` of
+    (``relay``) or overlaps (not): the ones its rows are scored against."""
+    out = []
     for j, name in enumerate(names):
         tr = objects.tracks.get(name)
         if tr is None or seg.t1 < tr.t[0] - BRIDGE_SECONDS or seg.t0 > tr.t[-1] + BRIDGE_SECONDS:
             continue
         if not relay and not overlaps(seg.t0, seg.t1, float(tr.t[0]), float(tr.t[-1])):
             continue
-        version = objects.version.get(name, 0)
-        cached = objects.llr_cache.get((seg.id, name))
-        if cached is None or cached[0] != version:
-            cached = (version, segment_score(batch, rows, tr)[2])
-            objects.llr_cache[(seg.id, name)] = cached
-        out[j] = cached[1]
+        out.append((j, name))
+    return out
+
+
+def _stale(objects: Objects, seg: Segment, name: str) -> bool:
+    """True when the cached llr of ``seg`` against ``name`` is missing or out of date."""
+    cached = objects.llr_cache.get((seg.id, name))
+    return cached is None or cached[0] != objects.version.get(name, 0)
+
+
+def _score_into_cache(objects: Objects, seg: Segment, name: str) -> None:
+    """Per-row llr of the segment's scored rows against object ``name``, into the cache."""
+    batch = as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+    llr = segment_score(batch, spread(seg.rows, SCORED_ROWS), objects.tracks[name])[2]
+    objects.llr_cache[(seg.id, name)] = (objects.version.get(name, 0), llr)
+
+
+def _prefetch_scores(objects: Objects, segments: list[Segment], names: list[str],
+                     relay: bool) -> None:
+    """Score every (segment, candidate object) pair not cached yet, side by side in threads
+    (``rangeproc.parallel``); the scores are the same as computing them one by one."""
+    jobs = [(seg, name) for seg in segments for _, name in _candidates(objects, seg, names, relay)
+            if _stale(objects, seg, name)]
+    thread_map(lambda job: _score_into_cache(objects, *job), jobs,
+               cost=lambda job: min(job[0].rows.size, SCORED_ROWS))
+
+
+def _scored_llr(objects: Objects, seg: Segment, names: list[str], relay: bool
+                ) -> dict[int, np.ndarray]:
+    """Object index -> per-row llr (M,) of the segment's scored rows (``spread(seg.rows,
+    SCORED_ROWS)``) against each candidate object (:func:`_candidates`)."""
+    out: dict[int, np.ndarray] = {}
+    for j, name in _candidates(objects, seg, names, relay):
+        if _stale(objects, seg, name):
+            _score_into_cache(objects, seg, name)
+        out[j] = objects.llr_cache[(seg.id, name)][1]
     return out
 
 
@@ -231,10 +261,11 @@ def _score_links(objects: Objects, pending: list[Segment], names: list[str],
     out: list[Segment] = []
     links: dict[tuple[int, int], float] = {}
     queue = list(pending)
+    _prefetch_scores(objects, queue, names, relay)
     while queue:
         seg = queue.pop(0)
         scored = spread(seg.rows, SCORED_ROWS)
-        llr = _scored_llr(objects, seg, names, scored, relay)
+        llr = _scored_llr(objects, seg, names, relay)
         k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
         if gain > SPLIT_GAIN:
             k_rows = int(np.searchsorted(seg.rows, scored[k]))
@@ -295,8 +326,7 @@ def _grow(objects: Objects, names: list[str], pending: list[Segment],
         pending = left
         if not pending:
             break
-        for name in changed:
-            objects.estimate(name)
+        objects.estimate_many(sorted(changed))
         tick()
         if not changed:
             break
@@ -323,20 +353,22 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     segments: list[Segment] = []
     clutter: dict[int, np.ndarray] = {}
     angle_plots: dict[int, np.ndarray] = {}
-    for i, r in rows.items():
-        if kinds[i] not in ("radar", "theodolite") or r.t.size == 0:
-            continue
-        segs, clutter[i], angle_plots[i] = sensor_segments(i, r, len(segments))
-        segments.extend(segs)
+    tracked = [i for i, r in rows.items()
+               if kinds[i] in ("radar", "theodolite") and r.t.size]
+    per_sensor = thread_map(lambda i: sensor_segments(i, rows[i], 0), tracked,
+                            cost=lambda i: rows[i].t.size)      # sensors side by side
+    for i, (segs, clutter_rows, angle_rows) in zip(tracked, per_sensor):
+        clutter[i], angle_plots[i] = clutter_rows, angle_rows
+        first = len(segments)                                  # ids in sensor order
+        segments.extend(replace(s, id=first + s.id) for s in segs)
     tick()
     searches: list[SearchResult] = []
     segs_of: dict[str, list[Segment]] = {}
-    anchored = []
     for name in declared:
         sensors = [i for i in anchors.get(name, []) if i in rows and rows[i].t.size]
         objects.members[name] = [(i, np.arange(rows[i].t.size)) for i in sensors]
-        if sensors and objects.estimate(name):
-            anchored.append(name)
+    started = objects.estimate_many([n for n in declared if objects.members[n]])
+    anchored = [name for name in declared if started.get(name, False)]
     replaced: dict[int, tuple[int, int]] = {}
 
     def new_id() -> int:

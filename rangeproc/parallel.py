@@ -1,0 +1,138 @@
+"""Independent jobs side by side on the cores of one machine.
+
+* :func:`thread_map`: threads, for work that is mostly compiled kernel time (objects' filters
+  and smoothers, segment scores): the kernels (``numba``, ``nogil=True``) release the GIL.
+  Results come back in the order the jobs were given and do not depend on the thread count;
+  the first job to raise stops the jobs that have not started and its exception propagates.
+* :func:`shared_with_child`: this process and one forked child, for work that holds the GIL
+  (the report's matplotlib figures).
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS tells it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:                                 # not on Linux
+        return os.cpu_count() or 1
+
+
+def thread_map(fn: Callable[[T], R], items: Sequence[T],
+               cost: Callable[[T], float] | None = None) -> list[R]:
+    """``[fn(x) for x in items]`` with up to one thread per usable core.
+
+    cost: an estimate of each job's run time; the costliest start first so the threads
+    finish together. One job (or one core) runs in the calling thread, without a pool.
+    """
+    workers = min(usable_cores(), len(items))
+    if workers <= 1:
+        return [fn(x) for x in items]
+    order = sorted(range(len(items)), key=lambda k: -cost(items[k])) if cost \
+        else list(range(len(items)))
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="rangeproc") as pool:
+        futures = {k: pool.submit(fn, items[k]) for k in order}
+        try:
+            return [futures[k].result() for k in range(len(items))]
+        except BaseException:
+            for future in futures.values():
+                future.cancel()
+            raise
+
+
+def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
+                      done: Callable[[int], None] = lambda k: None) -> None:
+    """``run_job(k)`` for k in ``range(n_jobs)``, shared with one forked child process.
+
+    For work that holds the GIL (matplotlib drawing): this process and a child forked from it
+    (it sees the same data without copying or pickling) take the next job from a shared
+    counter until none is left. The jobs' effects must be files or the like: nothing returns
+    from the child. ``done(k)`` is called in this process as each job finishes (the child's
+    as they are reported). The first exception in either process stops both and propagates
+    here (the child's is sent back whole, or as ``RuntimeError`` with its text when it cannot
+    be pickled). Without a second core, without ``fork``, outside the main thread or inside
+    a daemonic process (a Dask worker) every job runs here, in order.
+    """
+    if n_jobs < 2 or not _can_fork():
+        for k in range(n_jobs):
+            run_job(k)
+            done(k)
+        return
+    ctx = multiprocessing.get_context("fork")
+    counter = ctx.Value("i", 0)
+    reader, writer = ctx.Pipe(duplex=False)
+
+    def take() -> int:
+        with counter.get_lock():
+            k = counter.value
+            counter.value = k + 1
+        return k
+
+    def child() -> None:
+        reader.close()
+        try:
+            while (k := take()) < n_jobs:
+                run_job(k)
+                writer.send(("done", k))
+            writer.send(("ok", None))
+        except BaseException as exc:  # noqa: BLE001 - sent to the parent, raised there
+            try:
+                writer.send(("error", exc))
+            except Exception:  # noqa: BLE001 - the exception does not pickle
+                writer.send(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+
+    for stream in (sys.stdout, sys.stderr):   # or the child would write their buffers again
+        if stream is not None:
+            stream.flush()
+    worker = ctx.Process(target=child, name="rangeproc-child", daemon=True)
+    worker.start()
+    writer.close()
+    finished = False
+
+    def drain(block: bool) -> None:
+        nonlocal finished
+        while not finished and (block or reader.poll()):
+            try:
+                what, value = reader.recv()
+            except EOFError:
+                worker.join()
+                raise RuntimeError(f"child process ended with exit code {worker.exitcode} "
+                                   "before finishing its jobs") from None
+            if what == "done":
+                done(value)
+            elif what == "ok":
+                finished = True
+            else:
+                raise value
+
+    try:
+        while (k := take()) < n_jobs:
+            run_job(k)
+            done(k)
+            drain(block=False)
+        drain(block=True)
+    except BaseException:
+        worker.kill()
+        raise
+    finally:
+        worker.join()
+        reader.close()
+
+
+def _can_fork() -> bool:
+    """True when forking a helper process is safe and useful here (see
+    :func:`shared_with_child`)."""
+    return (usable_cores() >= 2 and "fork" in multiprocessing.get_all_start_methods()
+            and threading.current_thread() is threading.main_thread()
+            and not multiprocessing.current_process().daemon)

@@ -1,0 +1,99 @@
+"""rangeproc.parallel: threads over compiled kernels and one forked child for figures."""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rangeproc import parallel
+from rangeproc.estimation.rts import rts_smooth
+from rangeproc.parallel import shared_with_child, thread_map, usable_cores
+
+
+def test_thread_map_keeps_the_order_of_the_items_whatever_the_cost_order():
+    items = list(range(20))
+    out = thread_map(lambda x: (time.sleep(0.001 * (x % 3)), x * x)[1], items,
+                     cost=lambda x: x % 5)
+    assert out == [x * x for x in items]
+
+
+def test_thread_map_propagates_the_first_exception():
+    def job(x: int) -> int:
+        if x == 3:
+            raise ValueError("job 3 failed")
+        return x
+
+    with pytest.raises(ValueError, match="job 3 failed"):
+        thread_map(job, list(range(8)))
+
+
+@pytest.mark.skipif(usable_cores() < 2, reason="needs two cores")
+def test_compiled_kernels_release_the_gil_so_threads_overlap():
+    """Two RTS smoothers in two threads take clearly less than twice one of them."""
+    n = 200_000
+    t = np.arange(n, dtype=float) * 0.05
+    xf = np.zeros((n, 9))
+    rows, cols = np.tril_indices(9)                     # packed lower triangle, row-major
+    Pf = np.tile((rows == cols).astype(float), (n, 1))
+    q = np.full(n, 1.0)
+
+    def smooth(_: int) -> float:
+        x, P = xf.copy(), Pf.copy()
+        t0 = time.perf_counter()
+        rts_smooth(t, x, P, q, True, False, None, None)
+        return time.perf_counter() - t0
+
+    smooth(0)                                            # compile / load from the cache
+    one = min(smooth(0) for _ in range(2))
+    t0 = time.perf_counter()
+    thread_map(smooth, [0, 1])
+    both = time.perf_counter() - t0
+    assert both < 1.6 * one, (one, both)
+
+
+def _write_job(folder: Path):
+    def run(k: int) -> None:
+        path = folder / f"{k}.txt"
+        with open(path, "a") as fh:                     # "a": a job done twice shows
+            fh.write(f"{os.getpid()}\n")
+    return run
+
+
+def test_shared_with_child_runs_every_job_exactly_once(tmp_path):
+    done: list[int] = []
+    shared_with_child(_write_job(tmp_path), 12, done.append)
+    assert sorted(done) == list(range(12))
+    lines = [(tmp_path / f"{k}.txt").read_text().splitlines() for k in range(12)]
+    assert all(len(x) == 1 for x in lines)
+
+
+def test_shared_with_child_raises_the_childs_exception(tmp_path, monkeypatch):
+    parent = os.getpid()
+
+    def run(k: int) -> None:
+        if os.getpid() != parent or not parallel._can_fork():
+            raise KeyError(f"figure {k}")
+        time.sleep(0.2)                                 # leave the other jobs to the child
+
+    with pytest.raises(KeyError, match="figure"):
+        shared_with_child(run, 4)
+
+
+def test_shared_with_child_runs_in_order_here_outside_the_main_thread(tmp_path):
+    """Forking from a worker thread (a Dask worker runs tasks in threads) is not safe: the
+    jobs then run in the calling thread, in order."""
+    pids: list[int] = []
+    seen: list[int] = []
+
+    def run(k: int) -> None:
+        pids.append(os.getpid())
+        seen.append(k)
+
+    worker = threading.Thread(target=shared_with_child, args=(run, 5))
+    worker.start()
+    worker.join()
+    assert seen == list(range(5)) and set(pids) == {os.getpid()}
