@@ -213,12 +213,16 @@ def _predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.
 @njit(cache=True, error_model="numpy", inline="always")
 def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
              dx: np.ndarray) -> None:
-    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``."""
+    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``.
+
+    Components of zero weight are skipped, not multiplied by 0: their X_j, P_j may be unset
+    (a model the smoother pruned at this epoch), and 0 * NaN is NaN."""
     r, n = X.shape
     for a in range(n):
         acc = 0.0
         for j in range(r):
-            acc += w[j] * X[j, a]
+            if w[j] != 0.0:
+                acc += w[j] * X[j, a]
         x[a] = acc
     for a in range(n):
         for b in range(n):

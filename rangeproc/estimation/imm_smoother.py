@@ -39,8 +39,8 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     mus = np.empty((E, r))
     Xn = np.empty((r, n))                                   # smoothed per model at k+1
     Pn = np.empty((r, n, n))
-    Xk = np.empty((r, n))
-    Pk = np.empty((r, n, n))
+    Xk = np.zeros((r, n))                 # zeros: a pruned model's rows are never set
+    Pk = np.zeros((r, n, n))
     wc = np.empty(r)                                        # combination weights
     Xp = np.empty((r, r, n))                                # pair means at k
     Pp = np.empty((r, r, n, n))

@@ -264,6 +264,8 @@ def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_li
                                     jerk if jerk.shape[0] else None)
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
+    if not np.isfinite(xs).all():
+        raise NumericalError("estimator failed: non-finite smoothed state")
     res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
                                   batch.Qr, xs, Ps)
     if sigma_used.shape[0]:                  # adapted in the filter: report what it used
@@ -543,14 +545,19 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                                          ceiling=max(settings.q_grid))
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
             before, q_before = out, q_used
-            out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs, rho or 0.0)
+            try:
+                out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs,
+                           rho or 0.0)
+                failed = ""
+            except NumericalError as exc:       # the pass before stands (its track is sound)
+                failed = str(exc)
             q_used = qq
             tick(1, f"pass {p + 2}")
-            if rho is None and out.resets > before.resets:   # it lost the object: keep the
-                # pass before (a constrained pass is judged by constraint_agrees instead)
-                log.warning("pass %d: the divergence guard fired %d times against %d in the "
-                            "pass it refines; that pass is kept", p + 2, out.resets,
-                            before.resets)
+            if failed or rho is None and out.resets > before.resets:   # it lost the object:
+                # keep the pass before (a constrained pass is judged by constraint_agrees)
+                log.warning("pass %d: %s; the pass it refines is kept", p + 2, failed or (
+                    f"the divergence guard fired {out.resets} times against "
+                    f"{before.resets} in the pass it refines"))
                 out, q_used = before, q_before
                 if p + 1 < settings.noise_passes:
                     tick(settings.noise_passes - p - 1, "")

@@ -6,7 +6,7 @@ import numpy as np
 from rangeproc.estimation.divergence import MAX_RESET_INFLATION
 from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.fusion.batch import empty_rows
+from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.models.measurement import CARTESIAN
 
 
@@ -101,3 +101,39 @@ def test_the_local_process_noise_stays_below_its_ceiling() -> None:
     q = local_process_noise(t, em, ceiling=1e5)
     assert q.max() == 1e5
     assert np.isclose(np.median(q), 0.1)
+
+
+def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypatch,
+                                                                         caplog) -> None:
+    """A refinement pass that raises (e.g. a non-finite smoothed state) does not end the run
+    or reach the output: the pass it refines stands, with a warning."""
+    import rangeproc.fusion.centralised as centralised
+    from rangeproc.errors import NumericalError
+
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 60.0, 0.5)
+    rows = empty_rows(t.size, CARTESIAN)
+    rows["z"][:, :3] = np.column_stack([100.0 * t, 50.0 * t, 3000.0 + 0.0 * t]) \
+        + rng.normal(0.0, 2.0, (t.size, 3))
+    rows["sigma"][:, :3] = 2.0
+    batch = merge([(0, SensorRows(t=t, source_row=np.arange(t.size), station=np.full(t.size, -1),
+                                  track=np.full(t.size, -1), **rows))], ("G1",))
+    settings = centralised.EstimatorSettings(noise_passes=2)
+    calls = {"n": 0}
+    real = centralised._run
+
+    def second_fails(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise NumericalError("estimator failed: non-finite smoothed state")
+        return real(*args, **kwargs)
+
+    reference = centralised.fuse_target(batch, 10.0, centralised.EstimatorSettings(
+        noise_passes=0))
+    monkeypatch.setattr(centralised, "_run", second_fails)
+    result = centralised.fuse_target(batch, 10.0, settings)
+    assert calls["n"] == 2                          # the failed pass ends the refinement
+    assert np.isfinite(result.xs).all()
+    np.testing.assert_allclose(result.xs, reference.xs, rtol=0, atol=1e-9)
+    assert "pass 2: estimator failed: non-finite smoothed state; the pass it refines is kept" \
+        in caplog.text

@@ -165,3 +165,16 @@ def test_model_probabilities_follow_the_turn_and_the_smoother_helps():
         return float(np.sqrt(((x[:, :3] - pos) ** 2).sum(axis=1).mean()))
 
     assert rmse(xs) < 0.97 * rmse(xr)
+
+
+def test_a_component_of_zero_weight_never_reaches_the_mixture() -> None:
+    """Kim's smoother leaves a pruned model's entries unset (its workspace may hold any bits,
+    NaN included): the combination must skip it, not multiply it by zero. (A NaN there made
+    1 run in 6 of a MISTRAM-only IMM sortie write a NaN trajectory.)"""
+    from rangeproc.estimation.imm import combine
+    X = np.array([[1.0, 2.0], [np.nan, np.inf]])
+    P = np.stack([np.eye(2), np.full((2, 2), np.nan)])
+    x, out, dx = np.empty(2), np.empty((2, 2)), np.empty(2)
+    combine(X, P, np.array([1.0, 0.0]), x, out, dx)
+    np.testing.assert_array_equal(x, [1.0, 2.0])
+    np.testing.assert_array_equal(out, np.eye(2))
