@@ -184,13 +184,14 @@ def fuse_objects(cfg: Config, parts_of: dict, sensor_ids: tuple[str, ...],
 
 def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
                  tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, Assembled]:
-    """Stage 2: measurement rows with geometry for every non-INS sensor."""
+    """Stage 2: measurement rows with geometry for every non-INS sensor (sensors side by side
+    in threads, ``rangeproc.parallel``)."""
     ins = {s.id: logs[s.id] for s in cfg.sensors if s.kind == "ins"}
+    sensors = [s for s in cfg.sensors if s.kind != "ins"]
     out = {}
-    for s in cfg.sensors:
-        if s.kind == "ins":
-            continue
-        out[s.id] = assemble_sensor(logs[s.id], s, frame, ins)
+    for s, rows in zip(sensors, thread_map(lambda s: assemble_sensor(logs[s.id], s, frame, ins),
+                                           sensors, cost=lambda s: len(logs[s.id]))):
+        out[s.id] = rows
         tick(1, s.id)
     return out
 

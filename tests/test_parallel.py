@@ -11,7 +11,7 @@ import pytest
 
 from rangeproc import parallel
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.parallel import shared_with_child, thread_map, usable_cores
+from rangeproc.parallel import shared_with_child, thread_map
 
 
 def test_thread_map_keeps_the_order_of_the_items_whatever_the_cost_order():
@@ -31,28 +31,34 @@ def test_thread_map_propagates_the_first_exception():
         thread_map(job, list(range(8)))
 
 
-@pytest.mark.skipif(usable_cores() < 2, reason="needs two cores")
 def test_compiled_kernels_release_the_gil_so_threads_overlap():
-    """Two RTS smoothers in two threads take clearly less than twice one of them."""
-    n = 200_000
+    """While an RTS smoother runs in another thread, this thread keeps running Python over
+    most of the kernel's run: it released the GIL. (Holding it, this loop runs only in the
+    switch interval before the call: 1 % of the window, measured with ``nogil`` removed.)"""
+    n = 300_000
     t = np.arange(n, dtype=float) * 0.05
     xf = np.zeros((n, 9))
     rows, cols = np.tril_indices(9)                     # packed lower triangle, row-major
     Pf = np.tile((rows == cols).astype(float), (n, 1))
     q = np.full(n, 1.0)
+    rts_smooth(t[:10], xf[:10].copy(), Pf[:10].copy(), q[:10], True, False, None, None)
+    window: list[float] = []
 
-    def smooth(_: int) -> float:
-        x, P = xf.copy(), Pf.copy()
-        t0 = time.perf_counter()
-        rts_smooth(t, x, P, q, True, False, None, None)
-        return time.perf_counter() - t0
+    def smooth() -> None:
+        window.append(time.perf_counter())
+        rts_smooth(t, xf, Pf, q, True, False, None, None)
+        window.append(time.perf_counter())
 
-    smooth(0)                                            # compile / load from the cache
-    one = min(smooth(0) for _ in range(2))
-    t0 = time.perf_counter()
-    thread_map(smooth, [0, 1])
-    both = time.perf_counter() - t0
-    assert both < 1.6 * one, (one, both)
+    worker = threading.Thread(target=smooth)
+    stamps = []
+    worker.start()
+    while worker.is_alive():
+        stamps.append(time.perf_counter())
+    worker.join()
+    stamps = np.asarray(stamps)
+    inside = stamps[(stamps > window[0]) & (stamps < window[1])]
+    covered = (inside.max() - inside.min()) / (window[1] - window[0]) if inside.size else 0.0
+    assert covered > 0.5, (covered, window[1] - window[0])  # GIL held: one switch interval
 
 
 def _write_job(folder: Path):

@@ -11,13 +11,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from rangeproc.config import Config
+from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.hampel import pre_edit
 from rangeproc.editing.limits import Limits, apply_limits
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.timecheck import check_overlap, edit_time
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog
+from rangeproc.parallel import thread_map
 
 log = logging.getLogger(__name__)
 
@@ -26,7 +27,9 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
                 tick: Callable[..., None] = lambda *a, **k: None) -> dict[str, SensorLog]:
     """Edited logs of every sensor (new dict; the input logs are not changed).
 
-    ``tick(1, sensor_id)`` is called after each sensor (progress display).
+    Sensors are screened side by side in threads (``rangeproc.parallel``); their edits enter
+    ``record`` in config order. ``tick(1, sensor_id)`` is called after each sensor (progress
+    display).
 
     Raises:
         DataError: a sensor whose every time stamp is impossible, or whose rows do not come
@@ -34,12 +37,18 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
     """
     p = cfg.processing
     limits = Limits(max_range=p.max_range, max_speed=p.max_speed)
+
+    def screen_one(s: SensorSettings) -> tuple[SensorLog, EditRecord]:
+        own = EditRecord()                      # one per sensor: threads append to their own
+        edited = edit_time(logs[s.id], s, own, max_gap=p.max_gap)
+        edited = apply_limits(edited, s, own, limits)
+        return pre_edit(edited, own, half_width=p.hampel_window,
+                        threshold=p.hampel_threshold), own
+
     out: dict[str, SensorLog] = {}
-    for s in cfg.sensors:
-        edited = edit_time(logs[s.id], s, record, max_gap=p.max_gap)
-        edited = apply_limits(edited, s, record, limits)
-        edited = pre_edit(edited, record, half_width=p.hampel_window,
-                          threshold=p.hampel_threshold)
+    screened = thread_map(screen_one, cfg.sensors, cost=lambda s: len(logs[s.id]))
+    for s, (edited, own) in zip(cfg.sensors, screened):   # config order, as one by one
+        record.edits.extend(own.edits)
         counts = record.counts(s.id)
         if counts:       # a time edit is rare and worth a word; the rest is in the summary
             (log.warning if "time" in counts else log.info)(
