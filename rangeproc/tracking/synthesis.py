@@ -456,7 +456,9 @@ def _stitch(objects: Objects, anchored: list[str], discovered: list[str],
             segs_of: dict[str, list[Segment]]) -> list[str]:
     """Relay between objects (step 5): a discovered object that lies before or after another
     object in time (overlapping it by less than ``OVERLAP_SECONDS``, within
-    ``BRIDGE_SECONDS``) joins it when its rows within ``RELAY_WINDOW_SECONDS`` of the gap fit
+    ``BRIDGE_SECONDS``), or continues one of the other's sensor tracks across a gap while
+    overlapping it (:func:`_track_relay`), joins it when its rows within
+    ``RELAY_WINDOW_SECONDS`` of the gap fit
     that object's trajectory carried across it (positive score, ``MIN_FIT_SHARE`` of the
     rows). Joins are made best score first, each only when the two groups hold no segments of
     one sensor overlapping in time (greedy stitching: where a formation splits, the better
@@ -473,11 +475,18 @@ def _stitch(objects: Objects, anchored: list[str], discovered: list[str],
             if other == k or other not in spans:
                 continue
             b0, b1 = spans[other]
-            if overlaps(a0, a1, b0, b1) or a1 < b0 - BRIDGE_SECONDS or a0 > b1 + BRIDGE_SECONDS:
+            if overlaps(a0, a1, b0, b1):      # only where it continues one of other's tracks
+                relay = _track_relay(segs_of.get(k, []), segs_of.get(other, []))
+                if relay is None:
+                    continue
+                after, gap, edge = relay
+            elif a1 < b0 - BRIDGE_SECONDS or a0 > b1 + BRIDGE_SECONDS:
                 continue
+            else:
+                after, gap, edge = a0 >= b0, a0 - b1 if a0 >= b0 else b0 - a1, \
+                    a0 if a0 >= b0 else a1
             score = _relay_score(objects, segs_of.get(k, []), objects.tracks[other],
-                                 after=a0 >= b0, gap=a0 - b1 if a0 >= b0 else b0 - a1,
-                                 edge=a0 if a0 >= b0 else a1)
+                                 after=after, gap=gap, edge=edge)
             if score is not None:
                 key = (min(k, other), max(k, other))
                 pair_score[key] = max(pair_score.get(key, score), score)
@@ -503,6 +512,32 @@ def _stitch(objects: Objects, anchored: list[str], discovered: list[str],
     for k in {find(k) for k in changed}:
         objects.estimate(k)
     return [k for k in discovered if root[k] == k]
+
+
+def _track_relay(segs: list[Segment], other: list[Segment]
+                 ) -> tuple[bool, float, float] | None:
+    """Where an object overlapping another in time is a piece of one of the other's sensor
+    tracks cut out by a gap (a radar that lost its object for a few seconds while another
+    sensor, e.g. a theodolite, kept the other object's span going): ``(after, gap, edge)``
+    for :func:`_relay_score` of the closest such join (a segment of ``segs`` that ends
+    before, or starts after, a segment of ``other`` of the same sensor and ``track_id``
+    hint, within ``BRIDGE_SECONDS``), or None."""
+    best: tuple[bool, float, float] | None = None
+    for seg in segs:
+        if seg.track < 0:
+            continue
+        for o in other:
+            if o.sensor != seg.sensor or o.track != seg.track:
+                continue
+            if o.t0 >= seg.t1:
+                cand = (False, o.t0 - seg.t1, seg.t1)
+            elif seg.t0 >= o.t1:
+                cand = (True, seg.t0 - o.t1, seg.t0)
+            else:
+                continue
+            if cand[1] <= BRIDGE_SECONDS and (best is None or cand[1] < best[1]):
+                best = cand
+    return best
 
 
 def _relay_score(objects: Objects, segs: list[Segment], track: ObjectTrack, *, after: bool,

@@ -68,3 +68,19 @@ def test_a_splitting_formation_is_stitched_without_joining_overlapping_tracks(tm
         segs = sorted(entry["segments"], key=lambda s: (s["sensor"], s["t0"]))
         for a, b in zip(segs, segs[1:]):
             assert a["sensor"] != b["sensor"] or a["t1"] < b["t0"], (obj, a, b)
+
+
+def test_a_radar_track_cut_by_a_gap_under_a_theodolite_span_is_one_object(tmp_path) -> None:
+    """operator-switch, seed 1: R1's track of U1 pauses for 2 s (two segments) while the
+    theodolite follows U1 from 15 s before R1's first row. The first radar piece lies inside
+    the object's span (the theodolite's), so the end-to-start relay never tried it: it became
+    an object of its own and the evaluation counted a swap (78 m RMSE). It now continues the
+    radar track it was cut from (``synthesis._track_relay``)."""
+    run(simulate_multi(tmp_path, kind="operator-switch", seed=1))
+    m = evaluate_run(tmp_path / "out", tmp_path / "truth.csv")["multi"]["truth"]["U1"]
+    assert m["swaps"] == 0, m
+    assert m["best_match_rmse"] < 60.0, m
+    table = _association(tmp_path)
+    radar = table[(table.sensor == "R1") & (table.true == "U1")
+                  & (table.target_id.fillna("") != "")]      # not the rows edited out
+    assert radar.target_id.nunique() == 1, radar.target_id.value_counts().to_dict()

@@ -151,3 +151,24 @@ def test_mixed_scenario_that_broke_the_smoother_now_runs(tmp_path, cli, explain)
     assert np.isfinite(fused[["e", "n", "u", "sigma_e"]].to_numpy()).all()
     metrics = evaluate_run(tmp_path / "mixed" / "out", tmp_path / "mixed" / "truth.csv")
     assert metrics["targets"]["T1"]["pos_rmse"] < 0.5
+
+
+def test_track_relay_joins_pieces_of_one_sensor_track_across_a_short_gap() -> None:
+    """``_track_relay``: (after, gap, edge) of the closest same-sensor, same-track_id join;
+    None for another track_id, another sensor, an overlap, a plot track or a long gap."""
+    from rangeproc.tracking.objects import Segment
+    from rangeproc.tracking.synthesis import BRIDGE_SECONDS, _track_relay
+
+    def seg(sensor: int, track: int, t0: float, t1: float) -> Segment:
+        return Segment(0, sensor, np.arange(3), track, t0, t1, True)
+
+    piece = [seg(1, 50, 20.0, 33.0)]
+    other = [seg(2, -1, 5.0, 45.0), seg(1, 50, 35.0, 120.0)]
+    assert _track_relay(piece, other) == (False, 2.0, 33.0)
+    assert _track_relay([seg(1, 50, 130.0, 140.0)], other) == (True, 10.0, 130.0)
+    assert _track_relay([seg(1, 51, 20.0, 33.0)], other) is None
+    assert _track_relay([seg(3, 50, 20.0, 33.0)], other) is None
+    assert _track_relay([seg(1, 50, 30.0, 40.0)], other) is None
+    assert _track_relay([seg(1, -1, 20.0, 33.0)], [seg(1, -1, 35.0, 50.0)]) is None
+    assert _track_relay([seg(1, 50, 0.0, 1.0)],
+                        [seg(1, 50, 2.0 + BRIDGE_SECONDS, 300.0)]) is None
