@@ -509,8 +509,7 @@ def _stitch(objects: Objects, anchored: list[str], discovered: list[str],
         objects.members[keep].extend(objects.members.pop(gone))
         segs_of.setdefault(keep, []).extend(segs_of.pop(gone, []))
         changed.add(keep)
-    for k in {find(k) for k in changed}:
-        objects.estimate(k)
+    objects.estimate_many(sorted({find(k) for k in changed}))
     return [k for k in discovered if root[k] == k]
 
 
