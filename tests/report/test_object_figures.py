@@ -326,3 +326,12 @@ def test_edge_cases_do_not_crash(tmp_path: Path) -> None:
             assert save_figure(fig, tmp_path / f"{name}_p.png").read_bytes()[:8] == PNG_SIGNATURE
         fig = plot_plan([], np.full((3, 3), np.nan), {"X": np.array([np.nan, 0, 0])})
         save_figure(fig, tmp_path / "nothing.png")
+
+
+def test_bridged_runs_less_than_the_join_apart_are_drawn_as_one() -> None:
+    from rangeproc.report.objects import joined_runs
+    runs = np.array([[0.0, 3.0], [4.0, 7.0], [7.5, 9.0], [20.0, 22.0], [27.1, 30.0]])
+    np.testing.assert_array_equal(joined_runs(runs, 5.0),
+                                  [[0.0, 9.0], [20.0, 22.0], [27.1, 30.0]])
+    np.testing.assert_array_equal(joined_runs(runs[:1], 5.0), runs[:1])
+    assert joined_runs(np.zeros((0, 2)), 5.0).shape == (0, 2)
