@@ -16,6 +16,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.parallel import thread_map
 
 #: UKF parameters argument (unused by the EKF the likelihood search runs).
 EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
@@ -49,13 +50,17 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
     meas_epoch = np.searchsorted(sub_epochs, t).astype(np.int64)
     no_lin = np.empty((0, x0.shape[0]))
     grid = np.asarray(q_grid, dtype=float)
-    ll_rows = np.empty((len(grid), len(rows)))
-    for g, q in enumerate(grid):
-        ll_rows[g] = kalman_forward(
-            sub_epochs, meas_epoch, batch.model[rows], batch.z[rows], batch.sigma[rows],
-            batch.s[rows], batch.sv[rows], batch.Qr[rows], batch.sensor[rows], x0, P0,
-            np.full(len(sub_epochs), float(q)), gate, reset_after, reset_inflation, no_lin,
-            EKF, EKF_UNUSED_UKF, 0, False, 0.0, NO_FADING, NO_SPLINE)[7]
+    sub = (batch.model[rows], batch.z[rows], batch.sigma[rows], batch.s[rows],
+           batch.sv[rows], batch.Qr[rows], batch.sensor[rows])
+
+    def row_loglik(q: float) -> np.ndarray:
+        return kalman_forward(
+            sub_epochs, meas_epoch, *sub, x0, P0, np.full(len(sub_epochs), q), gate,
+            reset_after, reset_inflation, no_lin, EKF, EKF_UNUSED_UKF, 0, False, 0.0,
+            NO_FADING, NO_SPLINE)[7]
+
+    # the candidates side by side (rangeproc.parallel): the filter releases the GIL
+    ll_rows = np.stack(thread_map(row_loglik, [float(q) for q in grid]))
     total = ll_rows.sum(axis=1)
     best = int(np.argmax(total))
     q_global = float(grid[best])
