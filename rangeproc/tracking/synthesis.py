@@ -89,6 +89,9 @@ SPLIT_GAIN = 50.0
 MIN_SPLIT_ROWS = 10
 #: Growth rounds per object set (each re-estimates the objects that changed).
 MAX_ROUNDS = 8
+#: Relative cost of a plot (a row without track id: the plot tracker, Python per scan)
+#: against a tracked row (a compiled filter step), to start the slowest sensors first.
+PLOT_COST = 30
 #: Rows of a segment scored against an object: at most these many, evenly spread.
 SCORED_ROWS = 3_000
 
@@ -355,8 +358,9 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     angle_plots: dict[int, np.ndarray] = {}
     tracked = [i for i, r in rows.items()
                if kinds[i] in ("radar", "theodolite") and r.t.size]
-    per_sensor = thread_map(lambda i: sensor_segments(i, rows[i], 0), tracked,
-                            cost=lambda i: rows[i].t.size)      # sensors side by side
+    per_sensor = thread_map(                                   # sensors side by side
+        lambda i: sensor_segments(i, rows[i], 0), tracked,
+        cost=lambda i: rows[i].t.size + PLOT_COST * int((rows[i].track < 0).sum()))
     for i, (segs, clutter_rows, angle_rows) in zip(tracked, per_sensor):
         clutter[i], angle_plots[i] = clutter_rows, angle_rows
         first = len(segments)                                  # ids in sensor order
