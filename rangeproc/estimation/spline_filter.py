@@ -53,7 +53,7 @@ import math
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2, norm
+from rangeproc.quantiles import chi2_ppf, norm_ppf
 
 from rangeproc.estimation.fading import epoch_innovations
 from rangeproc.estimation.kernels import N_OBSERVED
@@ -85,8 +85,8 @@ def spline_params(probability: float) -> np.ndarray:
     if not 0.5 <= probability < 1.0:
         raise ValueError(f"anomaly probability must be in [0.5, 1), got {probability}")
     out = np.empty(SPL_TABLE + 1)
-    out[0] = norm.ppf(probability)
-    out[1:] = chi2.ppf(probability, np.arange(1, SPL_TABLE + 1))
+    out[0] = norm_ppf(probability)
+    out[1:] = chi2_ppf(probability, np.arange(1, SPL_TABLE + 1))
     return out
 
 

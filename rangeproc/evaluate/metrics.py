@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.stats import chi2
+from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.errors import DataError, NumericalError
 from rangeproc.evaluate.multi import format_multi, gospa_series, multi_object_metrics, summarise
@@ -98,7 +98,7 @@ def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray, cov: np.ndarray,
         nees = np.einsum("ni,ni->n", pos_err, np.linalg.solve(cov, pos_err[:, :, None])[:, :, 0])
     except np.linalg.LinAlgError as exc:
         raise NumericalError(f"{where}: singular position covariance in fused output") from exc
-    lo, hi = chi2.ppf([0.025, 0.975], 3 * n) / n
+    lo, hi = chi2_ppf([0.025, 0.975], 3 * n) / n
     return {
         "n_epochs": int(n),
         "pos_rmse": _f(np.sqrt(np.mean(pos_norm**2))),

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
-from scipy.stats import chi2
+from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
@@ -188,7 +188,7 @@ class FusionResult:
 def gate_thresholds(probability: float) -> np.ndarray:
     """(7,) chi-square thresholds indexed by degrees of freedom (index 0 unused)."""
     g = np.full(7, np.inf)
-    g[1:] = chi2.ppf(probability, np.arange(1, 7))
+    g[1:] = chi2_ppf(probability, np.arange(1, 7))
     return g
 
 

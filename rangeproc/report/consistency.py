@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from scipy import stats
+from rangeproc.quantiles import chi2_ppf, norm_pdf
 
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
@@ -64,8 +64,8 @@ def window_nis(time: np.ndarray, nis: np.ndarray, dof: np.ndarray, window: int, 
     s_nis = np.add.reduceat(nis, starts)
     s_dof = np.add.reduceat(dof.astype(float), starts)
     t_mid = 0.5 * (time[starts] + time[np.append(starts[1:], n) - 1])
-    lo = stats.chi2.ppf(0.025, s_dof) / counts
-    hi = stats.chi2.ppf(0.975, s_dof) / counts
+    lo = chi2_ppf(0.025, s_dof) / counts
+    hi = chi2_ppf(0.975, s_dof) / counts
     return t_mid, s_nis / counts, s_dof / counts, lo, hi
 
 
@@ -148,7 +148,7 @@ def _hist_panel(ax: Axes, v: SensorView) -> None:
     width = edges[1] - edges[0]
     used_comp = v.used_comp
     zz = np.linspace(-Z_MAX, Z_MAX, 201)
-    ax.plot(zz, stats.norm.pdf(zz), color="k", lw=1.2, ls="--", label="N(0,1)")
+    ax.plot(zz, norm_pdf(zz), color="k", lw=1.2, ls="--", label="N(0,1)")
     any_drawn = False
     for j, comp in enumerate(v.components):
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -20,7 +20,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
+from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.tracking.score import ObjectTrack, score_rows
@@ -51,7 +51,7 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
     llr = np.full((plots.size, len(tracks)), -np.inf)
     t = batch.t[plots]
     dof = np.isfinite(batch.z[plots, :4]).sum(axis=1)
-    gate = np.asarray(chi2.ppf(GATE_PROBABILITY, np.maximum(dof, 1)), dtype=float)
+    gate = np.asarray(chi2_ppf(GATE_PROBABILITY, np.maximum(dof, 1)), dtype=float)
     for j, track in enumerate(tracks):
         if track is None or track.t.size == 0:
             continue

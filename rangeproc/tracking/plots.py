@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
+from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
 
@@ -185,7 +185,7 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
     t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) scan numbers
     (:func:`scan_numbers`). See the module docstring for the method.
     """
-    gate = float(chi2.ppf(GATE_PROBABILITY, 3))
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     live: list[_Track] = []
     done: list[_Track] = []
     order = np.argsort(scan, kind="stable")

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2
+from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.editing.hampel import noise_floor
 
@@ -202,7 +202,7 @@ def segment_filter(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, q: np.ndarra
 
 def _chi2_gates(c: int) -> np.ndarray:
     """(c + 1,) chi-square thresholds by degrees of freedom (index 0 unused)."""
-    return np.array([0.0] + [float(chi2.ppf(GATE_PROBABILITY, d)) for d in range(1, c + 1)])
+    return np.array([0.0] + [float(chi2_ppf(GATE_PROBABILITY, d)) for d in range(1, c + 1)])
 
 
 def component_noise(t: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, float]:
