@@ -75,7 +75,7 @@ def test_a_radar_track_cut_by_a_gap_under_a_theodolite_span_is_one_object(tmp_pa
     theodolite follows U1 from 15 s before R1's first row. The first radar piece lies inside
     the object's span (the theodolite's), so the end-to-start relay never tried it: it became
     an object of its own and the evaluation counted a swap (78 m RMSE). It now continues the
-    radar track it was cut from (``synthesis._track_relay``)."""
+    radar track it was cut from (``relay._track_relay``)."""
     run(simulate_multi(tmp_path, kind="operator-switch", seed=1))
     m = evaluate_run(tmp_path / "out", tmp_path / "truth.csv")["multi"]["truth"]["U1"]
     assert m["swaps"] == 0, m

@@ -157,7 +157,7 @@ def test_track_relay_joins_pieces_of_one_sensor_track_across_a_short_gap() -> No
     """``_track_relay``: (after, gap, edge) of the closest same-sensor, same-track_id join;
     None for another track_id, another sensor, an overlap, a plot track or a long gap."""
     from rangeproc.tracking.objects import Segment
-    from rangeproc.tracking.synthesis import BRIDGE_SECONDS, _track_relay
+    from rangeproc.tracking.relay import BRIDGE_SECONDS, _track_relay
 
     def seg(sensor: int, track: int, t0: float, t1: float) -> Segment:
         return Segment(0, sensor, np.arange(3), track, t0, t1, True)
