@@ -122,10 +122,10 @@ def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
     return rows.z[sel][:, :4]
 
 
-def sensor_segments(sensor: int, rows: SensorRows, first_id: int
+def sensor_segments(sensor: int, rows: SensorRows
                     ) -> tuple[list[Segment], np.ndarray, np.ndarray]:
     """Segments of one radar/theodolite, plus its clutter rows and its angle-only plot rows
-    (index arrays into ``rows``). Segment ids count from ``first_id``."""
+    (index arrays into ``rows``). Segment ids count from 0 (the caller offsets them)."""
     out: list[Segment] = []
     clutter = np.zeros(0, dtype=np.int64)
     angle_plots = np.zeros(0, dtype=np.int64)
@@ -133,7 +133,7 @@ def sensor_segments(sensor: int, rows: SensorRows, first_id: int
 
     def add(sel: np.ndarray, track: int, plot: bool = False) -> None:
         t = rows.t[sel]
-        out.append(Segment(first_id + len(out), sensor, sel, track, float(t[0]), float(t[-1]),
+        out.append(Segment(len(out), sensor, sel, track, float(t[0]), float(t[-1]),
                            bool(has_range_row[sel].mean() > 0.5), plot))
 
     plots = rows.track < 0
@@ -356,7 +356,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     tracked = [i for i, r in rows.items()
                if kinds[i] in ("radar", "theodolite") and r.t.size]
     per_sensor = thread_map(                                   # sensors side by side
-        lambda i: sensor_segments(i, rows[i], 0), tracked,
+        lambda i: sensor_segments(i, rows[i]), tracked,
         cost=lambda i: rows[i].t.size + PLOT_COST * int((rows[i].track < 0).sum()))
     for i, (segs, clutter_rows, angle_rows) in zip(tracked, per_sensor):
         clutter[i], angle_plots[i] = clutter_rows, angle_rows
