@@ -54,10 +54,18 @@ def _fsync(path: Path) -> None:
 
 
 def write_parquet(df: pd.DataFrame, path: str | Path) -> Path:
-    """Write ``df`` (index dropped) to Parquet at ``path`` atomically; returns the path."""
+    """Write ``df`` (index dropped) to Parquet at ``path`` atomically; returns the path.
+
+    Only text columns are dictionary-encoded: pyarrow otherwise tries a dictionary on every
+    float column first and drops it when the values are all different (the scale scenario's
+    ``fused.parquet``: 4x the write time, 15 % larger).
+    """
     table = pa.Table.from_pandas(df, preserve_index=False)
+    text = [f.name for f in table.schema
+            if pa.types.is_string(f.type) or pa.types.is_large_string(f.type)
+            or pa.types.is_dictionary(f.type)]
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp)
+        pq.write_table(table, tmp, use_dictionary=text or False)
     return Path(path)
 
 

@@ -9,6 +9,7 @@ from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 
 from rangeproc.io import writers
@@ -50,7 +51,7 @@ def test_failing_write_keeps_previous_file(tmp_path: Path) -> None:
 
 def test_write_parquet_failure_mid_write_leaves_nothing(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    def broken_write_table(table: object, where: Path) -> None:
+    def broken_write_table(table: object, where: Path, **options: object) -> None:
         Path(where).write_bytes(b"PAR1 partial")
         raise OSError("No space left on device")
 
@@ -112,3 +113,17 @@ def test_file_sha256_matches_hashlib(tmp_path: Path, size: int) -> None:
     expected = hashlib.sha256(data).hexdigest()
     assert file_sha256(path, chunk_size=1000) == expected   # several chunks
     assert file_sha256(path) == expected
+
+
+def test_write_parquet_dictionary_encodes_only_text_columns(tmp_path: Path) -> None:
+    """Float columns are written plain (no dictionary attempt), text columns with a
+    dictionary; the values read back are the ones written."""
+    df = pd.DataFrame({"target_id": ["T1", "O1"] * 500, "e": np.arange(1000) * 0.1,
+                       "n": np.linspace(-1.0, 1.0, 1000)})
+    path = write_parquet(df, tmp_path / "fused.parquet")
+    pd.testing.assert_frame_equal(pd.read_parquet(path), df, check_dtype=False)
+    meta = pq.ParquetFile(path).metadata.row_group(0)
+    encodings = {meta.column(k).path_in_schema: meta.column(k).encodings
+                 for k in range(meta.num_columns)}
+    assert "RLE_DICTIONARY" in encodings["target_id"]
+    assert "RLE_DICTIONARY" not in encodings["e"] and "RLE_DICTIONARY" not in encodings["n"]
