@@ -52,7 +52,8 @@ def thread_map(fn: Callable[[T], R], items: Sequence[T],
 
 
 def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
-                      done: Callable[[int], None] = lambda k: None) -> None:
+                      done: Callable[[int], None] = lambda k: None,
+                      first: Callable[[], None] = lambda: None) -> None:
     """``run_job(k)`` for k in ``range(n_jobs)``, shared with one forked child process.
 
     For work that holds the GIL (matplotlib drawing): this process and a child forked from it
@@ -63,8 +64,13 @@ def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
     here (the child's is sent back whole, or as ``RuntimeError`` with its text when it cannot
     be pickled). Without a second core, without ``fork``, outside the main thread or inside
     a daemonic process (a Dask worker) every job runs here, in order.
+
+    ``first()`` runs here before this process takes a job, once the child has started: other
+    work (writing the run's tables) overlaps the child's first jobs. Its exception stops the
+    child and propagates.
     """
     if n_jobs < 2 or not _can_fork():
+        first()
         for k in range(n_jobs):
             run_job(k)
             done(k)
@@ -117,6 +123,7 @@ def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
                 raise value
 
     try:
+        first()
         while (k := take()) < n_jobs:
             run_job(k)
             done(k)

@@ -318,20 +318,23 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     out_dir = make_output_dir(cfg)
     with staged_outputs(out_dir) as stage:
         with clock.stage("write"):
-            write_parquet(fused_table(tracks), stage / "fused.parquet")
-            write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
             association = association_table(
                 cfg, synthesis, {sid: (lg.row, lg.time) for sid, lg in logs.items()}, kept,
                 {sid: lg.n_read for sid, lg in logs.items()},
                 cfg.targets[0].id if synthesis is None else None)
+
+        def write_tables() -> None:     # written while the report's child draws its first figures
+            write_parquet(fused_table(tracks), stage / "fused.parquet")
+            write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
             write_parquet(association, stage / "association.parquet")
+
         with clock.stage("report", 4 + len(residuals) + 2 * (synthesis is not None)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
                                    sites=sites, calibration={
                                        sid: ss["calibration"] for sid, ss in
                                        sensor_summary.items() if ss.get("calibration")},
                                    association=association if synthesis is not None else None,
-                                   stray=stray,
+                                   stray=stray, first=write_tables,
                                    progress=lambda name: tick(1, name))
         summary = {
             "rangeproc_version": rangeproc.__version__,

@@ -1,6 +1,7 @@
 """rangeproc.parallel: threads over compiled kernels and one forked child for figures."""
 from __future__ import annotations
 
+import multiprocessing
 import os
 import threading
 import time
@@ -103,3 +104,37 @@ def test_shared_with_child_runs_in_order_here_outside_the_main_thread(tmp_path):
     worker.start()
     worker.join()
     assert seen == list(range(5)) and set(pids) == {os.getpid()}
+
+
+def test_shared_with_child_runs_first_here_once_while_the_child_takes_jobs(tmp_path):
+    """``first`` runs once, in this process, before it takes a job; the child meanwhile
+    starts on the jobs (with two cores)."""
+    here = os.getpid()
+    calls: list[tuple[int, float]] = []
+    taken_here: list[tuple[int, float]] = []
+
+    def first() -> None:
+        calls.append((os.getpid(), time.perf_counter()))
+        time.sleep(0.3)
+
+    def run(k: int) -> None:
+        _write_job(tmp_path)(k)
+        if os.getpid() == here:
+            taken_here.append((k, time.perf_counter()))
+
+    shared_with_child(run, 6, first=first)
+    assert [pid for pid, _ in calls] == [os.getpid()]
+    assert all(t > calls[0][1] for _, t in taken_here)
+    jobs = [(tmp_path / f"{k}.txt").read_text().split() for k in range(6)]
+    assert all(len(x) == 1 for x in jobs)
+    if parallel._can_fork():                    # the child did jobs while first() ran
+        assert any(int(x[0]) != os.getpid() for x in jobs)
+
+
+def test_shared_with_child_stops_the_child_when_first_raises(tmp_path):
+    def first() -> None:
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        shared_with_child(_write_job(tmp_path), 50, first=first)
+    assert not [c for c in multiprocessing.active_children() if c.name == "rangeproc-child"]

@@ -50,7 +50,8 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
                  calibration: Mapping[str, Mapping[str, dict]] | None = None,
                  progress: Callable[[str], None] | None = None,
                  association: pd.DataFrame | None = None,
-                 stray: np.ndarray | None = None) -> list[Path]:
+                 stray: np.ndarray | None = None,
+                 first: Callable[[], None] = lambda: None) -> list[Path]:
     """Draw and write the report figures into ``report_dir`` (created if missing).
 
     tracks: smoothed trajectories (range ENU metres, s); residuals: post-fit residual sets
@@ -59,7 +60,9 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     the map; calibration: ``summary.json``'s per-sensor ``calibration`` entries (drawn when
     any); progress: called with a short message as each figure is written; association: the
     ``association.parquet`` table (columns sensor, row, time, target_id, segment, reason);
-    stray: (M, 3) range ENU metres of the unassigned / clutter plots, drawn grey in the plan.
+    stray: (M, 3) range ENU metres of the unassigned / clutter plots, drawn grey in the plan;
+    first: other work this process does while the forked child draws its first figures
+    (``rangeproc.parallel.shared_with_child``; before any figure when drawing in one process).
 
     Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor (after the calibration's
     corrections), ``consistency.png``, ``coverage.png``, ``objects.png`` (which sensor saw
@@ -96,7 +99,7 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
         say(f"report: {jobs[k][0]}")
         log.debug("wrote %s", report_dir / jobs[k][0])
 
-    shared_with_child(draw, len(jobs), done)
+    shared_with_child(draw, len(jobs), done, first)
     written = [report_dir / name for name, _ in jobs]
     log.info("report: %d figures in %s", len(written), report_dir)
     return written
