@@ -95,8 +95,13 @@ class Objects:
 
     def batch(self, name: str) -> MeasurementBatch:
         """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
+        return self.members_batch(self.members[name])
+
+    def members_batch(self, members: Sequence[tuple[int, np.ndarray]]) -> MeasurementBatch:
+        """The batch of member rows ``members`` ((sensor, rows) pairs), at most
+        ``QUICK_ROWS_PER_SENSOR`` per sensor."""
         parts: dict[int, list[np.ndarray]] = {}
-        for i, sel in self.members[name]:
+        for i, sel in members:
             parts.setdefault(i, []).append(sel)
         return merge([(i, subset_rows(self.rows[i], spread(np.sort(np.concatenate(sels)),
                                                        QUICK_ROWS_PER_SENSOR)))
@@ -111,14 +116,26 @@ class Objects:
 
     def estimate(self, name: str) -> bool:
         """(Re-)estimate an object's quick trajectory; False when it cannot be started."""
+        return self.adopt(name, self.quick_track(self.members[name], self.priors.get(name)))
+
+    def quick_track(self, members: Sequence[tuple[int, np.ndarray]],
+                    prior: Prior | None = None) -> ObjectTrack | None:
+        """The quick trajectory of the member rows ``members`` ((sensor, rows) pairs); None
+        when it cannot be started. A function of its arguments only (the objects are not
+        touched), so it may be computed ahead of need."""
         try:
-            result = fuse_target(self.batch(name), SCORING_RATE_HZ, self.settings,
-                                 prior=self.priors.get(name))
+            result = fuse_target(self.members_batch(members), SCORING_RATE_HZ, self.settings,
+                                 prior=prior)
         except NoPositionFix:
+            return None
+        return object_track(result) if result.grid.any() else None
+
+    def adopt(self, name: str, track: ObjectTrack | None) -> bool:
+        """Make ``track`` object ``name``'s quick trajectory (a new version); False (and
+        nothing changes) when it is None."""
+        if track is None:
             return False
-        if not result.grid.any():
-            return False
-        self.tracks[name] = object_track(result)
+        self.tracks[name] = track
         self.version[name] = self.version.get(name, 0) + 1
         return True
 

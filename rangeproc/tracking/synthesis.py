@@ -74,7 +74,7 @@ from rangeproc.tracking.relay import (
     relay_lone_objects,
     stitch,
 )
-from rangeproc.tracking.score import segment_score
+from rangeproc.tracking.score import ObjectTrack, segment_score
 from rangeproc.tracking.segments import segment_track
 
 log = logging.getLogger(__name__)
@@ -91,6 +91,11 @@ MAX_ROUNDS = 8
 #: Relative cost of a plot (a row without track id: the plot tracker, Python per scan)
 #: against a tracked row (a compiled filter step), to start the slowest sensors first.
 PLOT_COST = 30
+#: Seeds whose quick trajectories discovery computes together: the longest pending one and
+#: the runner-ups, on the cores one estimate leaves idle. A runner-up's trajectory is used
+#: when it is still the longest seed in its turn (it depends on its own rows only, so the
+#: result is the same as computing it then); one absorbed by an earlier object is dropped.
+LOOK_AHEAD = 2
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -381,16 +386,23 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                     tick, relay=False)
     discovered: list[str] = []
     unstartable: list[Segment] = []
+    ahead: dict[int, ObjectTrack | None] = {}      # seed segment id -> its quick trajectory
     while True:
-        seeds = [s for s in pending if s.has_range and s.rows.size >= MIN_SEED_ROWS
-                 and s.t1 - s.t0 >= MIN_SEED_SECONDS]
+        seeds = sorted((s for s in pending if s.has_range and s.rows.size >= MIN_SEED_ROWS
+                        and s.t1 - s.t0 >= MIN_SEED_SECONDS),
+                       key=lambda s: (-s.rows.size, s.t0))      # the longest, then earliest
         if not seeds:
             break
-        seed = max(seeds, key=lambda s: (s.rows.size, -s.t0))
+        seed = seeds[0]
         name = f"_new{len(discovered)}"
         objects.members[name] = [(seed.sensor, seed.rows)]
         pending = [s for s in pending if s.id != seed.id]
-        if not objects.estimate(name):
+        ahead = {k: v for k, v in ahead.items() if k in {s.id for s in seeds}}
+        if seed.id not in ahead:
+            todo = [s for s in seeds[:LOOK_AHEAD] if s.id not in ahead]
+            ahead.update(zip((s.id for s in todo), thread_map(
+                lambda s: objects.quick_track([(s.sensor, s.rows)]), todo)))
+        if not objects.adopt(name, ahead.pop(seed.id)):
             del objects.members[name]
             unstartable.append(seed)
             continue

@@ -84,3 +84,40 @@ def test_a_radar_track_cut_by_a_gap_under_a_theodolite_span_is_one_object(tmp_pa
     radar = table[(table.sensor == "R1") & (table.true == "U1")
                   & (table.target_id.fillna("") != "")]      # not the rows edited out
     assert radar.target_id.nunique() == 1, radar.target_id.value_counts().to_dict()
+
+
+def test_discovery_computing_the_next_seed_ahead_changes_nothing(tmp_path, monkeypatch) -> None:
+    """``LOOK_AHEAD``: the runner-up seed's quick trajectory, computed alongside the seed's,
+    is adopted later (so the look-ahead is exercised) and the outputs are identical to
+    computing every seed's trajectory in its turn."""
+    from rangeproc.tracking import synthesis
+    from rangeproc.tracking.objects import Objects, Segment
+
+    folder = simulate_multi(tmp_path / "sim", kind="mixed", seed=5).parent
+    ahead, adopted = [], []
+    real_map, real_adopt = synthesis.thread_map, Objects.adopt
+
+    def spy_map(fn, items, cost=None):
+        out = real_map(fn, items, cost)
+        if len(items) == 2 and all(isinstance(x, Segment) for x in items):
+            ahead.append(out[1])
+        return out
+
+    def spy_adopt(self, name, track):
+        adopted.append(track)
+        return real_adopt(self, name, track)
+
+    tables = {}
+    for look in (1, 2):
+        monkeypatch.setattr(synthesis, "LOOK_AHEAD", look)
+        monkeypatch.setattr(synthesis, "thread_map", spy_map)
+        monkeypatch.setattr(Objects, "adopt", spy_adopt)
+        out = tmp_path / f"out{look}"
+        cfg = (folder / "scenario.toml").read_text().replace('dir = "out"', f'dir = "{out}"')
+        (folder / f"look{look}.toml").write_text(cfg)
+        run(folder / f"look{look}.toml")
+        tables[look] = [pd.read_parquet(out / f) for f in ("fused.parquet",
+                                                            "association.parquet")]
+    assert any(a is b for a in adopted for b in ahead if b is not None)
+    for one, two in zip(*tables.values()):
+        pd.testing.assert_frame_equal(one, two)
