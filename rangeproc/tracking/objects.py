@@ -33,7 +33,7 @@ SCORING_RATE_HZ = 10.0
 QUICK_ROWS_PER_SENSOR = 5_000
 #: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
 #: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
-QUICK_Q_SEARCH_ROWS = 5_000
+QUICK_Q_SEARCH_ROWS = 2_000
 
 
 @dataclass(frozen=True, slots=True)

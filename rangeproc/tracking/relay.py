@@ -26,7 +26,7 @@ RELAY_WINDOW_SECONDS = 10.0
 #: Share of a segment's rows that must fit an object (positive llr) for a candidate link.
 MIN_FIT_SHARE = 0.5
 #: Rows of a segment scored against an object: at most these many, evenly spread.
-SCORED_ROWS = 3_000
+SCORED_ROWS = 1_500
 
 
 def stitch(objects: Objects, anchored: list[str], discovered: list[str],
