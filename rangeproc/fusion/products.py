@@ -58,7 +58,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
-    P = unpack_many(result.Ps[result.grid], n)[:, :9, :9]
+    P = unpack_many(result.Ps[result.grid], n, 9)
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)

@@ -57,10 +57,10 @@ class Segment:
 def object_track(result: FusionResult) -> ObjectTrack:
     """The output-grid epochs of a fused result as an :class:`ObjectTrack`."""
     g = result.grid
-    P = unpack_many(result.Ps[g], result.xs.shape[1])
     return ObjectTrack(np.ascontiguousarray(result.epoch_t[g]),
                        np.ascontiguousarray(result.xs[g][:, :9]),
-                       np.ascontiguousarray(P[:, :9, :9]), np.ascontiguousarray(result.q[g]))
+                       unpack_many(result.Ps[g], result.xs.shape[1], 9),
+                       np.ascontiguousarray(result.q[g]))
 
 
 def spread(sel: np.ndarray, most: int) -> np.ndarray:

@@ -66,3 +66,5 @@ def test_unpacking_many_equals_unpacking_one_by_one():
         unpack(packed[k], one[k])
     np.testing.assert_array_equal(unpack_many(packed, n), one)
     np.testing.assert_allclose(one, full, rtol=1e-15, atol=1e-12)
+    np.testing.assert_array_equal(unpack_many(packed, n, 9), one[:, :9, :9])  # leading block
+    assert unpack_many(packed[:0], n).shape == (0, n, n)
