@@ -15,6 +15,11 @@ from rangeproc.models.motion import N_KINEMATIC
 #: Prior 1-sigma around the fitted start (m, m/s, m/s^2): generous, so that the prior does not
 #: bias the smoothed start and early good rows pass the gate.
 PRIOR_SIGMA = (100.0, 50.0, 30.0)
+#: A start fix farther than this many of its accuracies from the Huber line sends the start
+#: to the redescending fit (``_redescending_line``); below it the Huber line stands.
+GROSS_START_SIGMAS = 10.0
+#: Tukey biweight constant (95 % efficiency under Gaussian errors).
+TUKEY_C = 4.685
 
 
 class NoPositionFix(DataError):
@@ -96,6 +101,36 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     return rows, pos, acc
 
 
+def _redescending_line(t: np.ndarray, p: np.ndarray, acc: np.ndarray, fallback: np.ndarray
+                       ) -> np.ndarray:
+    """(2, 3) [position; velocity] of a constant-velocity line through fixes ``p`` (K, 3) at
+    times ``t`` (K,) s that ignores gross outliers: a Theil-Sen start (per axis, the median
+    of the pairwise slopes), then Tukey's biweight (zero weight beyond ``TUKEY_C`` robust
+    scales; scale = the larger of the fixes' median accuracy ``acc`` (K,) m and 1.4826 MAD
+    of the distances). Huber weights cannot do this with few fixes: one plot of clutter
+    kilometres away at the start of a surveillance radar's track still leaned its velocity
+    by hundreds of m/s, the gate then rejected the object's own plots and the track left for
+    a thousand kilometres. ``fallback`` is returned when fewer than two fixes keep weight."""
+    i, j = np.triu_indices(t.size, 1)
+    dt = t[j] - t[i]
+    ok = dt > 0.0
+    if not ok.any():
+        return fallback
+    slope = np.median((p[j][ok] - p[i][ok]) / dt[ok, None], axis=0)
+    coef = np.vstack([np.median(p - t[:, None] * slope, axis=0), slope])
+    A = np.column_stack([np.ones_like(t), t])
+    for _ in range(10):
+        dist = np.linalg.norm(p - A @ coef, axis=1)
+        scale = max(float(np.median(acc)), 1.4826 * float(np.median(dist)))
+        u = dist / (TUKEY_C * scale)
+        w = np.where(u < 1.0, (1.0 - u * u) ** 2, 0.0) / acc ** 2
+        if np.count_nonzero(w) < 2 or np.ptp(t[w > 0]) <= 0.0:
+            return fallback
+        sw = np.sqrt(w)[:, None]
+        coef = np.linalg.lstsq(A * sw, p * sw, rcond=None)[0]
+    return coef
+
+
 def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
                   n_min: int = 5, n_state: int = N_KINEMATIC) -> tuple[np.ndarray, np.ndarray]:
     """Prior state (n,) and covariance (n, n) at time ``t0`` (s).
@@ -126,6 +161,9 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         resid = np.linalg.norm(pp - A @ coef, axis=1) * np.sqrt(w)
         huber = np.where(resid <= 2.0, 1.0, 2.0 / np.maximum(resid, 1e-12))
         w = huber / np.maximum(acc[take], 1e-3) ** 2
+    spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc[take], 1e-3)
+    if len(tt) >= 3 and spread.max() > GROSS_START_SIGMAS:
+        coef = _redescending_line(tt, pp, np.maximum(acc[take], 1e-3), coef)
     x0 = np.zeros(n_state)
     x0[0:3] = coef[0]
     x0[3:6] = coef[1] if len(tt) > 1 and np.ptp(tt) > 0 else 0.0
