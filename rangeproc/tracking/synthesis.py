@@ -52,6 +52,7 @@ from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.objects import (
+    QUICK_ROWS_PER_SENSOR,
     Objects,
     Segment,
     as_batch,
@@ -96,6 +97,9 @@ PLOT_COST = 30
 #: when it is still the longest seed in its turn (it depends on its own rows only, so the
 #: result is the same as computing it then); one absorbed by an earlier object is dropped.
 LOOK_AHEAD = 2
+#: Relative cost of an anchored object's quick trajectory per row (the process-noise search's
+#: filters and the smoother) against a segmented row, to start the slowest jobs first.
+ANCHOR_COST = 4
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -360,20 +364,30 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     angle_plots: dict[int, np.ndarray] = {}
     tracked = [i for i, r in rows.items()
                if kinds[i] in ("radar", "theodolite") and r.t.size]
-    per_sensor = thread_map(                                   # sensors side by side
-        lambda i: sensor_segments(i, rows[i]), tracked,
-        cost=lambda i: rows[i].t.size + PLOT_COST * int((rows[i].track < 0).sum()))
-    for i, (segs, clutter_rows, angle_rows) in zip(tracked, per_sensor):
+    for name in declared:
+        sensors = [i for i in anchors.get(name, []) if i in rows and rows[i].t.size]
+        objects.members[name] = [(i, np.arange(rows[i].t.size)) for i in sensors]
+    starting = [n for n in declared if objects.members[n]]
+
+    def first_job(job: int | str):   # a sensor's segments, or an anchored object's trajectory
+        return sensor_segments(job, rows[job]) if isinstance(job, int) else \
+            objects.quick_track(objects.members[job], objects.priors.get(job))
+
+    def first_cost(job: int | str) -> float:
+        if isinstance(job, int):
+            return rows[job].t.size + PLOT_COST * int((rows[job].track < 0).sum())
+        return ANCHOR_COST * sum(min(sel.size, QUICK_ROWS_PER_SENSOR)
+                                 for _, sel in objects.members[job])
+
+    done = thread_map(first_job, [*tracked, *starting], cost=first_cost)   # side by side
+    for i, (segs, clutter_rows, angle_rows) in zip(tracked, done):
         clutter[i], angle_plots[i] = clutter_rows, angle_rows
         first = len(segments)                                  # ids in sensor order
         segments.extend(replace(s, id=first + s.id) for s in segs)
     tick()
     searches: list[SearchResult] = []
     segs_of: dict[str, list[Segment]] = {}
-    for name in declared:
-        sensors = [i for i in anchors.get(name, []) if i in rows and rows[i].t.size]
-        objects.members[name] = [(i, np.arange(rows[i].t.size)) for i in sensors]
-    started = objects.estimate_many([n for n in declared if objects.members[n]])
+    started = {n: objects.adopt(n, track) for n, track in zip(starting, done[len(tracked):])}
     anchored = [name for name in declared if started.get(name, False)]
     replaced: dict[int, tuple[int, int]] = {}
 
