@@ -93,26 +93,33 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
 
 
 @njit(cache=True, nogil=True)
-def row_scores(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarray,
-               s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, offset: np.ndarray,
-               epoch: np.ndarray, ot: np.ndarray, ox: np.ndarray, oP: np.ndarray,
-               oq: np.ndarray, extent_sph: np.ndarray, extent_cart: np.ndarray,
-               eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-row residual (N, 6), normalised innovation squared (N,) and llr (N,).
+def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarray,
+                 s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, epoch: np.ndarray,
+                 ot: np.ndarray, ox: np.ndarray, oP: np.ndarray, oq: np.ndarray,
+                 extent_sph: np.ndarray, extent_cart: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                            np.ndarray, np.ndarray]:
+    """What the rows' scores need of the object, whatever offset is removed from ``z``.
 
     Rows: t, model, z (N, 6), sigma (N, 6), s, sv (N, 3), Qr (N, 3, 3) as in the batch;
-    ``offset`` (N, 6) subtracted from z (a bias); ``epoch`` (N,) index of the object epoch to
-    carry from; the object: ot (E,), ox (E, 9), oP (E, 9, 9), oq (E,).
+    ``epoch`` (N,) index of the object epoch to carry from; the object: ot (E,), ox (E, 9),
+    oP (E, 9, 9), oq (E,). Returns h (N, 6) the predicted measurement, L (N, 6, 6) the
+    Cholesky factor of S = H P Hᵀ + R over the measured components (leading m x m block),
+    m (N,) how many components are measured, idx (N, 6) which (first m), ok (N,) S positive
+    definite, logdet (N,) log det S, log_ext (N,) log of the unrelated density's extent.
     """
     n = t.shape[0]
-    res = np.full((n, N_COMPONENTS), np.nan)
-    nis = np.full(n, np.nan)
-    llr = np.zeros(n)
+    h_all = np.zeros((n, N_COMPONENTS))
+    L = np.zeros((n, N_COMPONENTS, N_COMPONENTS))
+    m_all = np.zeros(n, dtype=np.int64)
+    idx_all = np.zeros((n, N_COMPONENTS), dtype=np.int64)
+    ok = np.zeros(n, dtype=np.bool_)
+    logdet_all = np.zeros(n)
+    log_ext_all = np.zeros(n)
     x = np.empty(9)
     P = np.empty((9, 9))
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, 9))
-    idx = np.empty(N_COMPONENTS, dtype=np.int64)
     for i in range(n):
         e = epoch[i]
         _carry(ox[e], oP[e], t[i] - ot[e], oq[e], x, P)
@@ -120,42 +127,69 @@ def row_scores(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarra
         m = 0
         for c in range(N_COMPONENTS):
             if not math.isnan(z[i, c]):
-                idx[m] = c
+                idx_all[i, m] = c
                 m += 1
+        m_all[i] = m
         if m == 0:
             continue
-        S = np.empty((m, m))
-        nu = np.empty(m)
+        h_all[i] = h
+        S = L[i]
         log_ext = 0.0
         for a in range(m):
-            c = idx[a]
-            d = z[i, c] - offset[i, c] - h[c]
-            if model[i] == SPHERICAL and c == AZIMUTH:
-                d = wrap_angle(d)
-            nu[a] = d
-            res[i, c] = d
+            c = idx_all[i, a]
             log_ext += math.log(extent_sph[c] if model[i] == SPHERICAL else extent_cart[c])
             for b in range(m):
-                cb = idx[b]
+                cb = idx_all[i, b]
                 acc = 0.0
                 for k in range(9):
                     for l in range(9):
                         acc += H[c, k] * P[k, l] * H[cb, l]
                 S[a, b] = acc
             S[a, a] += sigma[i, c] * sigma[i, c]
+        log_ext_all[i] = log_ext
         if not cholesky_inplace(S, m):
-            llr[i] = math.log(eps)
             continue
+        ok[i] = True
         logdet = 0.0
         for a in range(m):
             logdet += 2.0 * math.log(S[a, a])
+        logdet_all[i] = logdet
+    return h_all, L, m_all, idx_all, ok, logdet_all, log_ext_all
+
+
+@njit(cache=True, nogil=True)
+def row_llr(model: np.ndarray, z: np.ndarray, offset: np.ndarray, h: np.ndarray,
+            L: np.ndarray, m_rows: np.ndarray, idx: np.ndarray, ok: np.ndarray,
+            logdet: np.ndarray, log_ext: np.ndarray, eps: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-row residual (N, 6), normalised innovation squared (N,) and llr (N,) of rows
+    ``z`` (N, 6) less ``offset`` (N, 6) (a bias), from :func:`row_geometry`'s outputs."""
+    n = z.shape[0]
+    res = np.full((n, N_COMPONENTS), np.nan)
+    nis = np.full(n, np.nan)
+    llr = np.zeros(n)
+    for i in range(n):
+        m = m_rows[i]
+        if m == 0:
+            continue
+        nu = np.empty(m)
+        for a in range(m):
+            c = idx[i, a]
+            d = z[i, c] - offset[i, c] - h[i, c]
+            if model[i] == SPHERICAL and c == AZIMUTH:
+                d = wrap_angle(d)
+            nu[a] = d
+            res[i, c] = d
+        if not ok[i]:
+            llr[i] = math.log(eps)
+            continue
         w = nu.copy().reshape(m, 1)
-        chol_solve_inplace(S, m, w, 1)
+        chol_solve_inplace(L[i], m, w, 1)
         d2 = 0.0
         for a in range(m):
             d2 += nu[a] * w[a, 0]
         nis[i] = d2
-        log_ratio = -0.5 * d2 - 0.5 * logdet - 0.5 * m * math.log(2.0 * math.pi) + log_ext
+        log_ratio = -0.5 * d2 - 0.5 * logdet[i] - 0.5 * m * math.log(2.0 * math.pi) + log_ext[i]
         if log_ratio > 700.0:
             llr[i] = log_ratio + math.log(1.0 - eps)
         else:
@@ -172,25 +206,35 @@ def epochs_of(track: ObjectTrack, t: np.ndarray) -> np.ndarray:
     return k.astype(np.int64)
 
 
+def _geometry(batch: MeasurementBatch, sel: np.ndarray, track: ObjectTrack) -> tuple:
+    """:func:`row_geometry` of ``batch`` rows ``sel`` against ``track``."""
+    return row_geometry(batch.t[sel], batch.model[sel], batch.z[sel], batch.sigma[sel],
+                        batch.s[sel], batch.sv[sel], batch.Qr[sel], epochs_of(track, batch.t[sel]),
+                        track.t, track.x, track.P, track.q, EXTENT_SPHERICAL, EXTENT_CARTESIAN)
+
+
 def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
                offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(residual (M, 6), NIS (M,), llr (M,)) of ``batch`` rows ``rows`` against ``track``."""
     sel = np.asarray(rows)
     off = np.zeros((sel.size, N_COMPONENTS)) if offset is None else offset
-    return row_scores(batch.t[sel], batch.model[sel], batch.z[sel], batch.sigma[sel],
-                      batch.s[sel], batch.sv[sel], batch.Qr[sel], off,
-                      epochs_of(track, batch.t[sel]), track.t, track.x, track.P, track.q,
-                      EXTENT_SPHERICAL, EXTENT_CARTESIAN, OUTLIER_PROBABILITY)
+    return row_llr(batch.model[sel], batch.z[sel], off, *_geometry(batch, sel, track),
+                   OUTLIER_PROBABILITY)
 
 
 def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
                   ) -> tuple[float, np.ndarray, np.ndarray]:
     """A segment's score against an object: (sum of row llr after removing the clipped
-    median offset, the offset (6,), per-row llr (M,)). Module docstring."""
-    res, _, _ = score_rows(batch, rows, track)
-    spherical = batch.model[np.asarray(rows)[0]] == SPHERICAL
+    median offset, the offset (6,), per-row llr (M,)). Module docstring. The object is
+    carried to the rows once; the scores with and without the offset share it."""
+    sel = np.asarray(rows)
+    model, z = batch.model[sel], batch.z[sel]
+    geometry = _geometry(batch, sel, track)
+    res, _, _ = row_llr(model, z, np.zeros((sel.size, N_COMPONENTS)), *geometry,
+                        OUTLIER_PROBABILITY)
+    spherical = model[0] == SPHERICAL
     tol = BIAS_TOLERANCE_SPHERICAL if spherical else BIAS_TOLERANCE_CARTESIAN
-    sig = batch.sigma[np.asarray(rows)]
+    sig = batch.sigma[sel]
     tol = np.minimum(tol, BIAS_SIGMAS * np.nan_to_num(np.nanmedian(sig, axis=0), nan=0.0))
     med = np.zeros(N_COMPONENTS)
     for c in range(N_COMPONENTS):
@@ -199,5 +243,6 @@ def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
         if v.size:
             med[c] = np.median(v)
     off = np.clip(med, -tol, tol)
-    _, _, llr = score_rows(batch, rows, track, np.broadcast_to(off, res.shape).copy())
+    _, _, llr = row_llr(model, z, np.broadcast_to(off, res.shape).copy(), *geometry,
+                        OUTLIER_PROBABILITY)
     return float(llr.sum()), off, llr

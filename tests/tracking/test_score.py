@@ -1,0 +1,78 @@
+"""Segment scores (``tracking.score``) against an independent computation: GPS-like Cartesian
+rows at the object's epochs, where S = P_pos + R and the llr is a plain Gaussian mixture."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import CARTESIAN
+from rangeproc.tracking.score import (
+    BIAS_SIGMAS,
+    BIAS_TOLERANCE_CARTESIAN,
+    EXTENT_CARTESIAN,
+    OUTLIER_PROBABILITY,
+    ObjectTrack,
+    score_rows,
+    segment_score,
+)
+
+
+def _case(rng: np.random.Generator, bias: float):
+    n = 40
+    t = np.arange(n) * 0.5
+    x = np.zeros((n, 9))
+    x[:, 0], x[:, 3] = 100.0 + 30.0 * t, 30.0
+    x[:, 1], x[:, 4] = -50.0 + 10.0 * t, 10.0
+    A = rng.normal(size=(n, 9, 9)) * 0.5
+    P = A @ A.transpose(0, 2, 1) + 4.0 * np.eye(9)
+    track = ObjectTrack(t, x, P, np.full(n, 1.0))
+    sigma = np.zeros((n, 6))
+    sigma[:, :3] = 3.0
+    z = np.full((n, 6), np.nan)
+    z[:, :3] = x[:, :3] + rng.normal(size=(n, 3)) * 3.0 + bias
+    z[7, :3] += 400.0                                        # a wild row
+    batch = MeasurementBatch(t, np.full(n, CARTESIAN), z, sigma, np.zeros((n, 3)),
+                             np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
+                             np.zeros(n, np.int64), np.arange(n), np.full(n, -1),
+                             np.full(n, -1), ("G1",))
+    return batch, track
+
+
+def _expected_llr(batch: MeasurementBatch, track: ObjectTrack, off: np.ndarray) -> np.ndarray:
+    eps = OUTLIER_PROBABILITY
+    out = []
+    for i in range(batch.t.size):
+        nu = batch.z[i, :3] - off[:3] - track.x[i, :3]
+        S = track.P[i, :3, :3] + np.diag(batch.sigma[i, :3] ** 2)
+        d2 = float(nu @ np.linalg.solve(S, nu))
+        log_n = -0.5 * d2 - 0.5 * math.log(np.linalg.det(2.0 * math.pi * S))
+        log_ratio = log_n + float(np.log(EXTENT_CARTESIAN[:3]).sum())
+        out.append(math.log((1.0 - eps) * math.exp(log_ratio) + eps))
+    return np.array(out)
+
+
+def test_row_scores_are_the_gaussian_mixture_llr() -> None:
+    batch, track = _case(np.random.default_rng(3), 0.0)
+    rows = np.arange(batch.t.size)
+    res, nis, llr = score_rows(batch, rows, track)
+    np.testing.assert_allclose(llr, _expected_llr(batch, track, np.zeros(6)), rtol=1e-9)
+    np.testing.assert_allclose(res[:, :3], batch.z[:, :3] - track.x[:, :3], atol=1e-9)
+    assert np.isnan(res[:, 3:]).all() and llr[7] < math.log(OUTLIER_PROBABILITY) + 1e-6
+
+
+def test_segment_score_removes_the_clipped_median_offset() -> None:
+    """A 6 m bias per axis: removed up to min(10 m, 3 sigma = 9 m) per axis, so the segment
+    scores as the offset-free rows do."""
+    batch, track = _case(np.random.default_rng(4), 6.0)
+    rows = np.arange(batch.t.size)
+    total, off, llr = segment_score(batch, rows, track)
+    tol = np.minimum(BIAS_TOLERANCE_CARTESIAN, BIAS_SIGMAS * 3.0)
+    median = np.median(batch.z[:, :3] - track.x[:, :3], axis=0)
+    np.testing.assert_allclose(off[:3], np.clip(median, -tol[:3], tol[:3]), atol=1e-12)
+    assert 4.0 < off[:3].min() and off[:3].max() < 8.0
+    np.testing.assert_allclose(llr, _expected_llr(batch, track, off), rtol=1e-9)
+    assert total == llr.sum()
+    unbiased = score_rows(batch, rows, track)[2].sum()
+    assert total > unbiased + 10.0                           # the bias would have cost
