@@ -13,7 +13,7 @@ import tempfile
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,9 +56,6 @@ log = logging.getLogger(__name__)
 #: Gaps between an object's spans up to this many times ``max_gap`` are bridged in the output
 #: (``fusion.bridge``); longer ones stay empty.
 BRIDGE_FACTOR = 10.0
-#: Fewest rows of an object's process-noise likelihood search when several objects share the
-#: run's budget (``search_budget``).
-MIN_OBJECT_SEARCH_ROWS = 5_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,17 +143,6 @@ def _needs_initial(cfg: Config, target_id: str, why: str) -> DataError:
         "sigma_velocity = 5.0 }")
 
 
-def search_budget(settings: EstimatorSettings, rows: int, total: int) -> EstimatorSettings:
-    """``settings`` with the process-noise likelihood search's row budget of an object of
-    ``rows`` rows among ``total``: ``q_search_rows`` is a budget per run, shared by the
-    objects in proportion to their rows, at least ``MIN_OBJECT_SEARCH_ROWS`` each (q is a
-    property of an object's motion, found on a subset of its rows;
-    ``estimation.tuning``). A run of one object keeps the whole budget."""
-    share = settings.q_search_rows * rows // max(total, 1)
-    return replace(settings, q_search_rows=min(settings.q_search_rows,
-                                               max(MIN_OBJECT_SEARCH_ROWS, share)))
-
-
 def fuse_objects(cfg: Config, parts_of: dict, sensor_ids: tuple[str, ...],
                  settings: EstimatorSettings, priors: dict[str, Prior],
                  tick: Callable[..., None]) -> list[tuple[str, FusionResult]]:
@@ -177,14 +163,11 @@ def fuse_objects(cfg: Config, parts_of: dict, sensor_ids: tuple[str, ...],
         else:
             jobs.append((oid, parts))
 
-    total = sum(len(rows.t) for _, parts in jobs for _, rows in parts)
-
     def fuse_one(oid: str, parts: list) -> FusionResult | None:
         batch = merge(parts, sensor_ids)
         parts.clear()
         try:
-            return fuse_target(batch, cfg.output.rate_hz,
-                               search_budget(settings, len(batch.t), total),
+            return fuse_target(batch, cfg.output.rate_hz, settings,
                                tick=lambda n=1, note="", t=oid: tick(n, f"{t} {note}"),
                                prior=priors.get(oid))
         except NoPositionFix as exc:
