@@ -92,6 +92,9 @@ class Objects:
         #: a discovery re-scores every pending segment, but only against the objects that
         #: changed since (the scores are identical to recomputing them)
         self.llr_cache: dict[tuple[int, str], tuple[int, np.ndarray]] = {}
+        #: (segment id, relay) -> (its candidates as (index, object, version), its links
+        #: {object index: score}): a segment none of whose candidates changed keeps its links
+        self.link_cache: dict[tuple[int, bool], tuple[tuple, dict[int, float]]] = {}
 
     def batch(self, name: str) -> MeasurementBatch:
         """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""

@@ -273,20 +273,30 @@ def _score_links(objects: Objects, pending: list[Segment], names: list[str],
     _prefetch_scores(objects, queue, names, relay)
     while queue:
         seg = queue.pop(0)
-        scored = spread(seg.rows, SCORED_ROWS)
-        llr = _scored_llr(objects, seg, names, relay)
-        k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
-        if gain > SPLIT_GAIN:
-            k_rows = int(np.searchsorted(seg.rows, scored[k]))
-            a, b = _split(seg, k_rows, new_id, objects.rows[seg.sensor])
-            replaced[seg.id] = (a.id, b.id)
-            queue[:0] = [a, b]
-            continue
+        # the same candidates at the same versions as last time: the same links, no split
+        versions = tuple((j, name, objects.version.get(name, 0))
+                         for j, name in _candidates(objects, seg, names, relay))
+        cached = objects.link_cache.get((seg.id, relay))
+        if cached is not None and cached[0] == versions:
+            seg_links = cached[1]
+        else:
+            scored = spread(seg.rows, SCORED_ROWS)
+            llr = _scored_llr(objects, seg, names, relay)
+            k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
+            if gain > SPLIT_GAIN:
+                k_rows = int(np.searchsorted(seg.rows, scored[k]))
+                a, b = _split(seg, k_rows, new_id, objects.rows[seg.sensor])
+                replaced[seg.id] = (a.id, b.id)
+                queue[:0] = [a, b]
+                continue
+            seg_links = {j: float(v.sum()) * seg.rows.size / scored.size
+                         for j, v in llr.items()
+                         if v.sum() > 0.0 and (v > 0.0).mean() >= MIN_FIT_SHARE}
+            objects.link_cache[(seg.id, relay)] = (versions, seg_links)
         i = len(out)
         out.append(seg)
-        for j, v in llr.items():
-            if v.sum() > 0.0 and (v > 0.0).mean() >= MIN_FIT_SHARE:
-                links[(i, j)] = float(v.sum()) * seg.rows.size / scored.size
+        for j, w in seg_links.items():
+            links[(i, j)] = w
     return out, links
 
 

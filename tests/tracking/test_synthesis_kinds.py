@@ -121,3 +121,44 @@ def test_discovery_computing_the_next_seed_ahead_changes_nothing(tmp_path, monke
     assert any(a is b for a in adopted for b in ahead if b is not None)
     for one, two in zip(*tables.values()):
         pd.testing.assert_frame_equal(one, two)
+
+
+class _NoCache(dict):
+    """A link cache that never keeps anything (every segment's links recomputed)."""
+
+    def __setitem__(self, key, value) -> None:
+        pass
+
+
+def test_reusing_the_links_of_unchanged_segments_changes_nothing(tmp_path, monkeypatch) -> None:
+    """``Objects.link_cache``: a pending segment whose candidate objects are at the versions
+    it was last scored against keeps its links; the outputs equal recomputing them, and the
+    cache is used on this scenario."""
+    from rangeproc.tracking.objects import Objects
+
+    folder = simulate_multi(tmp_path / "sim", kind="mixed", seed=5).parent
+    real_init = Objects.__init__
+    hits: list[int] = []
+
+    class Counting(dict):
+        def get(self, key, default=None):
+            out = super().get(key, default)
+            hits.append(out is not None)
+            return out
+
+    tables = {}
+    for cache in (_NoCache, Counting):
+        def init(self, *args, cache=cache, **kwargs):
+            real_init(self, *args, **kwargs)
+            self.link_cache = cache()
+
+        monkeypatch.setattr(Objects, "__init__", init)
+        out = tmp_path / cache.__name__
+        cfg = (folder / "scenario.toml").read_text().replace('dir = "out"', f'dir = "{out}"')
+        (folder / f"{cache.__name__}.toml").write_text(cfg)
+        run(folder / f"{cache.__name__}.toml")
+        tables[cache] = [pd.read_parquet(out / f) for f in ("fused.parquet",
+                                                             "association.parquet")]
+    assert any(hits)
+    for one, two in zip(*tables.values()):
+        pd.testing.assert_frame_equal(one, two)
