@@ -232,17 +232,41 @@ def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
     geometry = _geometry(batch, sel, track)
     res, _, _ = row_llr(model, z, np.zeros((sel.size, N_COMPONENTS)), *geometry,
                         OUTLIER_PROBABILITY)
-    spherical = model[0] == SPHERICAL
-    tol = BIAS_TOLERANCE_SPHERICAL if spherical else BIAS_TOLERANCE_CARTESIAN
-    sig = batch.sigma[sel]
-    tol = np.minimum(tol, BIAS_SIGMAS * np.nan_to_num(np.nanmedian(sig, axis=0), nan=0.0))
-    med = np.zeros(N_COMPONENTS)
-    for c in range(N_COMPONENTS):
-        v = res[:, c]
-        v = v[np.isfinite(v)]
-        if v.size:
-            med[c] = np.median(v)
-    off = np.clip(med, -tol, tol)
+    tol = BIAS_TOLERANCE_SPHERICAL if model[0] == SPHERICAL else BIAS_TOLERANCE_CARTESIAN
+    off = clipped_median_offset(res, batch.sigma[sel], tol, BIAS_SIGMAS)
     _, _, llr = row_llr(model, z, np.broadcast_to(off, res.shape).copy(), *geometry,
                         OUTLIER_PROBABILITY)
     return float(llr.sum()), off, llr
+
+
+@njit(cache=True, nogil=True)
+def clipped_median_offset(res: np.ndarray, sigma: np.ndarray, tolerance: np.ndarray,
+                          n_sigmas: float) -> np.ndarray:
+    """(6,) per component: the median of the finite residuals ``res`` (M, 6) (0 when none),
+    clipped to +-min(``tolerance`` (6,), ``n_sigmas`` x the median finite ``sigma`` (M, 6),
+    0 where there is none): the constant offset a segment's score removes."""
+    m = res.shape[0]
+    off = np.zeros(N_COMPONENTS)
+    buf = np.empty(m)
+    for c in range(N_COMPONENTS):
+        k = 0
+        for i in range(m):
+            if not math.isnan(sigma[i, c]):      # NaN only, as nanmedian
+                buf[k] = sigma[i, c]
+                k += 1
+        tol = tolerance[c]
+        if k:
+            cap = n_sigmas * np.median(buf[:k])
+            if math.isinf(cap):
+                cap = 1.7976931348623157e308 if cap > 0 else -1.7976931348623157e308
+            tol = min(tol, cap)
+        else:
+            tol = min(tol, 0.0)
+        k = 0
+        for i in range(m):
+            if math.isfinite(res[i, c]):
+                buf[k] = res[i, c]
+                k += 1
+        med = np.median(buf[:k]) if k else 0.0
+        off[c] = min(max(med, -tol), tol)
+    return off

@@ -3,6 +3,7 @@ rows at the object's epochs, where S = P_pos + R and the llr is a plain Gaussian
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -76,3 +77,25 @@ def test_segment_score_removes_the_clipped_median_offset() -> None:
     assert total == llr.sum()
     unbiased = score_rows(batch, rows, track)[2].sum()
     assert total > unbiased + 10.0                           # the bias would have cost
+
+
+def test_clipped_median_offset_equals_the_numpy_computation() -> None:
+    """The compiled offset equals median / nanmedian / clip in numpy, NaNs and an all-NaN
+    component included."""
+    from rangeproc.tracking.score import clipped_median_offset
+
+    rng = np.random.default_rng(11)
+    for m in (1, 2, 7, 40):
+        res = rng.normal(scale=20.0, size=(m, 6))
+        res[rng.random((m, 6)) < 0.3] = np.nan
+        res[:, 5] = np.nan
+        sig = np.abs(rng.normal(scale=4.0, size=(m, 6)))
+        sig[rng.random((m, 6)) < 0.2] = np.nan
+        tol = np.array([50.0, 2e-3, 2e-3, 1.0, 0.0, 0.0]) * 1e3
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            cap = np.minimum(tol, BIAS_SIGMAS * np.nan_to_num(np.nanmedian(sig, axis=0), nan=0.0))
+        med = np.array([np.median(v[np.isfinite(v)]) if np.isfinite(v).any() else 0.0
+                        for v in res.T])
+        np.testing.assert_array_equal(clipped_median_offset(res, sig, tol, BIAS_SIGMAS),
+                                      np.clip(med, -cap, cap))
