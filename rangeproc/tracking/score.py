@@ -93,22 +93,25 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
 
 
 @njit(cache=True, nogil=True)
-def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndarray,
-                 s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, epoch: np.ndarray,
+def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarray,
+                 sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                  ot: np.ndarray, ox: np.ndarray, oP: np.ndarray, oq: np.ndarray,
                  extent_sph: np.ndarray, extent_cart: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                             np.ndarray, np.ndarray]:
     """What the rows' scores need of the object, whatever offset is removed from ``z``.
 
-    Rows: t, model, z (N, 6), sigma (N, 6), s, sv (N, 3), Qr (N, 3, 3) as in the batch;
-    ``epoch`` (N,) index of the object epoch to carry from; the object: ot (E,), ox (E, 9),
-    oP (E, 9, 9), oq (E,). Returns h (N, 6) the predicted measurement, L (N, 6, 6) the
+    Rows ``sel`` (N,) of the batch's t, model, z (., 6), sigma (., 6), s, sv (., 3), Qr
+    (., 3, 3), each carried from the object epoch nearest in time (the earlier one at a
+    tie; the first or last outside the object's span); the
+    object: ot (E,), ox (E, 9), oP (E, 9, 9), oq (E,). Indexing happens here, without the
+    GIL. Returns h (N, 6) the predicted measurement, L (N, 6, 6) the
     Cholesky factor of S = H P Hᵀ + R over the measured components (leading m x m block),
     m (N,) how many components are measured, idx (N, 6) which (first m), ok (N,) S positive
     definite, logdet (N,) log det S, log_ext (N,) log of the unrelated density's extent.
     """
-    n = t.shape[0]
+    n = sel.shape[0]
+    n_epochs = ot.shape[0]
     h_all = np.zeros((n, N_COMPONENTS))
     L = np.zeros((n, N_COMPONENTS, N_COMPONENTS))
     m_all = np.zeros(n, dtype=np.int64)
@@ -121,12 +124,17 @@ def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndar
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, 9))
     for i in range(n):
-        e = epoch[i]
-        _carry(ox[e], oP[e], t[i] - ot[e], oq[e], x, P)
-        measure(model[i], x, s[i], sv[i], Qr[i], h, H)
+        r = sel[i]
+        e = 0                                     # the nearest epoch
+        if n_epochs > 1:
+            e = min(max(np.searchsorted(ot, t[r]), 1), n_epochs - 1)
+            if abs(ot[e - 1] - t[r]) <= abs(ot[e] - t[r]):
+                e -= 1
+        _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
+        measure(model[r], x, s[r], sv[r], Qr[r], h, H)
         m = 0
         for c in range(N_COMPONENTS):
-            if not math.isnan(z[i, c]):
+            if not math.isnan(z[r, c]):
                 idx_all[i, m] = c
                 m += 1
         m_all[i] = m
@@ -137,7 +145,7 @@ def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndar
         log_ext = 0.0
         for a in range(m):
             c = idx_all[i, a]
-            log_ext += math.log(extent_sph[c] if model[i] == SPHERICAL else extent_cart[c])
+            log_ext += math.log(extent_sph[c] if model[r] == SPHERICAL else extent_cart[c])
             for b in range(m):
                 cb = idx_all[i, b]
                 acc = 0.0
@@ -145,7 +153,7 @@ def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndar
                     for l in range(9):
                         acc += H[c, k] * P[k, l] * H[cb, l]
                 S[a, b] = acc
-            S[a, a] += sigma[i, c] * sigma[i, c]
+            S[a, a] += sigma[r, c] * sigma[r, c]
         log_ext_all[i] = log_ext
         if not cholesky_inplace(S, m):
             continue
@@ -158,13 +166,15 @@ def row_geometry(t: np.ndarray, model: np.ndarray, z: np.ndarray, sigma: np.ndar
 
 
 @njit(cache=True, nogil=True)
-def row_llr(model: np.ndarray, z: np.ndarray, offset: np.ndarray, h: np.ndarray,
+def row_llr(sel: np.ndarray, model: np.ndarray, z: np.ndarray, offset: np.ndarray,
+            h: np.ndarray,
             L: np.ndarray, m_rows: np.ndarray, idx: np.ndarray, ok: np.ndarray,
             logdet: np.ndarray, log_ext: np.ndarray, eps: float
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-row residual (N, 6), normalised innovation squared (N,) and llr (N,) of rows
-    ``z`` (N, 6) less ``offset`` (N, 6) (a bias), from :func:`row_geometry`'s outputs."""
-    n = z.shape[0]
+    """Per-row residual (N, 6), normalised innovation squared (N,) and llr (N,) of the
+    batch rows ``sel`` (N,) of ``model``, ``z`` (., 6), less ``offset`` (N, 6) (a bias), from
+    :func:`row_geometry`'s outputs for the same rows."""
+    n = sel.shape[0]
     res = np.full((n, N_COMPONENTS), np.nan)
     nis = np.full(n, np.nan)
     llr = np.zeros(n)
@@ -175,8 +185,8 @@ def row_llr(model: np.ndarray, z: np.ndarray, offset: np.ndarray, h: np.ndarray,
         nu = np.empty(m)
         for a in range(m):
             c = idx[i, a]
-            d = z[i, c] - offset[i, c] - h[i, c]
-            if model[i] == SPHERICAL and c == AZIMUTH:
+            d = z[sel[i], c] - offset[i, c] - h[i, c]
+            if model[sel[i]] == SPHERICAL and c == AZIMUTH:
                 d = wrap_angle(d)
             nu[a] = d
             res[i, c] = d
@@ -197,28 +207,19 @@ def row_llr(model: np.ndarray, z: np.ndarray, offset: np.ndarray, h: np.ndarray,
     return res, nis, llr
 
 
-def epochs_of(track: ObjectTrack, t: np.ndarray) -> np.ndarray:
-    """(N,) index of the object epoch nearest to each row time (clamped to its span)."""
-    k = np.searchsorted(track.t, t)
-    k = np.clip(k, 1, track.t.size - 1) if track.t.size > 1 else np.zeros(t.size, np.int64)
-    if track.t.size > 1:
-        k = np.where(np.abs(track.t[k - 1] - t) <= np.abs(track.t[k] - t), k - 1, k)
-    return k.astype(np.int64)
-
-
 def _geometry(batch: MeasurementBatch, sel: np.ndarray, track: ObjectTrack) -> tuple:
     """:func:`row_geometry` of ``batch`` rows ``sel`` against ``track``."""
-    return row_geometry(batch.t[sel], batch.model[sel], batch.z[sel], batch.sigma[sel],
-                        batch.s[sel], batch.sv[sel], batch.Qr[sel], epochs_of(track, batch.t[sel]),
-                        track.t, track.x, track.P, track.q, EXTENT_SPHERICAL, EXTENT_CARTESIAN)
+    return row_geometry(sel, batch.t, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                        batch.Qr, track.t, track.x, track.P, track.q, EXTENT_SPHERICAL,
+                        EXTENT_CARTESIAN)
 
 
 def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
                offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(residual (M, 6), NIS (M,), llr (M,)) of ``batch`` rows ``rows`` against ``track``."""
-    sel = np.asarray(rows)
+    sel = np.asarray(rows, dtype=np.int64)
     off = np.zeros((sel.size, N_COMPONENTS)) if offset is None else offset
-    return row_llr(batch.model[sel], batch.z[sel], off, *_geometry(batch, sel, track),
+    return row_llr(sel, batch.model, batch.z, off, *_geometry(batch, sel, track),
                    OUTLIER_PROBABILITY)
 
 
@@ -227,32 +228,33 @@ def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
     """A segment's score against an object: (sum of row llr after removing the clipped
     median offset, the offset (6,), per-row llr (M,)). Module docstring. The object is
     carried to the rows once; the scores with and without the offset share it."""
-    sel = np.asarray(rows)
-    model, z = batch.model[sel], batch.z[sel]
+    sel = np.asarray(rows, dtype=np.int64)
     geometry = _geometry(batch, sel, track)
-    res, _, _ = row_llr(model, z, np.zeros((sel.size, N_COMPONENTS)), *geometry,
-                        OUTLIER_PROBABILITY)
-    tol = BIAS_TOLERANCE_SPHERICAL if model[0] == SPHERICAL else BIAS_TOLERANCE_CARTESIAN
-    off = clipped_median_offset(res, batch.sigma[sel], tol, BIAS_SIGMAS)
-    _, _, llr = row_llr(model, z, np.broadcast_to(off, res.shape).copy(), *geometry,
-                        OUTLIER_PROBABILITY)
+    res, _, _ = row_llr(sel, batch.model, batch.z, np.zeros((sel.size, N_COMPONENTS)),
+                        *geometry, OUTLIER_PROBABILITY)
+    spherical = batch.model[sel[0]] == SPHERICAL
+    tol = BIAS_TOLERANCE_SPHERICAL if spherical else BIAS_TOLERANCE_CARTESIAN
+    off = clipped_median_offset(res, batch.sigma, sel, tol, BIAS_SIGMAS)
+    _, _, llr = row_llr(sel, batch.model, batch.z, np.broadcast_to(off, res.shape).copy(),
+                        *geometry, OUTLIER_PROBABILITY)
     return float(llr.sum()), off, llr
 
 
 @njit(cache=True, nogil=True)
-def clipped_median_offset(res: np.ndarray, sigma: np.ndarray, tolerance: np.ndarray,
-                          n_sigmas: float) -> np.ndarray:
+def clipped_median_offset(res: np.ndarray, sigma: np.ndarray, sel: np.ndarray,
+                          tolerance: np.ndarray, n_sigmas: float) -> np.ndarray:
     """(6,) per component: the median of the finite residuals ``res`` (M, 6) (0 when none),
-    clipped to +-min(``tolerance`` (6,), ``n_sigmas`` x the median finite ``sigma`` (M, 6),
-    0 where there is none): the constant offset a segment's score removes."""
+    clipped to +-min(``tolerance`` (6,), ``n_sigmas`` x the median of the non-NaN
+    ``sigma[sel]`` (sel (M,) rows of sigma), 0 where there is none): the constant offset a
+    segment's score removes."""
     m = res.shape[0]
     off = np.zeros(N_COMPONENTS)
     buf = np.empty(m)
     for c in range(N_COMPONENTS):
         k = 0
         for i in range(m):
-            if not math.isnan(sigma[i, c]):      # NaN only, as nanmedian
-                buf[k] = sigma[i, c]
+            if not math.isnan(sigma[sel[i], c]):     # NaN only, as nanmedian
+                buf[k] = sigma[sel[i], c]
                 k += 1
         tol = tolerance[c]
         if k:
