@@ -85,3 +85,29 @@ def cli() -> Callable[[list[str]], Result]:
 def explain() -> Callable[[Result], str]:
     """``explain(result)``: exit code, stdout, stderr and traceback text for assert messages."""
     return describe
+
+
+def _plot_batch(t, rae, sigma):
+    """Radar plots (N,) times ``t`` s, ``rae`` (N, 3) range m / azimuth / elevation rad with
+    1-sigma ``sigma`` (3,), from a site at the range origin with ENU axes: a one-sensor
+    MeasurementBatch."""
+    import numpy as np
+
+    from rangeproc.fusion.batch import MeasurementBatch
+    from rangeproc.models.measurement import SPHERICAL
+
+    n = t.size
+    z = np.full((n, 6), np.nan)
+    z[:, :3] = rae
+    sig = np.zeros((n, 6))
+    sig[:, :3] = sigma
+    return MeasurementBatch(t, np.full(n, SPHERICAL), z, sig, np.zeros((n, 3)),
+                            np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
+                            np.zeros(n, np.int64), np.arange(n), np.full(n, -1),
+                            np.full(n, -1), ("SR1",))
+
+
+@pytest.fixture
+def plot_batch():
+    """``plot_batch(t, rae, sigma)``: radar plots as a MeasurementBatch (``_plot_batch``)."""
+    return _plot_batch

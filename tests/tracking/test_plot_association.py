@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.models.measurement import SPHERICAL
 from rangeproc.tracking.plot_association import plot_owners, reassign_members
 from rangeproc.tracking.score import ObjectTrack
 
@@ -30,19 +28,7 @@ def _rae(p: np.ndarray) -> np.ndarray:
                             np.arcsin(p[:, 2] / r)])
 
 
-def _batch(t: np.ndarray, rae: np.ndarray) -> MeasurementBatch:
-    n = t.size
-    z = np.full((n, 6), np.nan)
-    z[:, :3] = rae
-    sigma = np.zeros((n, 6))
-    sigma[:, :3] = SIG
-    return MeasurementBatch(t, np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)),
-                            np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
-                            np.zeros(n, np.int64), np.arange(n), np.full(n, -1),
-                            np.full(n, -1), ("SR1",))
-
-
-def test_plots_go_to_the_object_they_fit_one_per_scan() -> None:
+def test_plots_go_to_the_object_they_fit_one_per_scan(plot_batch) -> None:
     rng = np.random.default_rng(4)
     period = 4.0
     scans = np.arange(20)
@@ -65,7 +51,7 @@ def test_plots_go_to_the_object_they_fit_one_per_scan() -> None:
     tracks = [_track((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), grid, 3.0),
               _track((20_000.0, 20_300.0, 3_000.0), (-150.0, 0.0, 0.0), grid, 3.0)]
     scan = np.floor(t / period).astype(np.int64)
-    owner, gated = plot_owners(_batch(t, rae), np.arange(t.size), tracks, scan)
+    owner, gated = plot_owners(plot_batch(t, rae, SIG), np.arange(t.size), tracks, scan)
     assert not gated[truth == -1].any()
     assert (owner[truth == 0] == 0).mean() >= 0.95       # A's plots to A (the ghost echo
     assert (owner[truth == 1] == 1).all()                # 20 m off A loses to A's own plot)
@@ -75,7 +61,7 @@ def test_plots_go_to_the_object_they_fit_one_per_scan() -> None:
             assert ((scan == k) & (owner == j)).sum() <= 1
     # an object that does not exist yet takes nothing
     late = [_track((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), grid[grid > 40], 3.0)]
-    owner, _ = plot_owners(_batch(t, rae), np.arange(t.size), late, scan)
+    owner, _ = plot_owners(plot_batch(t, rae, SIG), np.arange(t.size), late, scan)
     assert (owner[t < 38.0] == -1).all()
 
 
