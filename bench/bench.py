@@ -777,7 +777,8 @@ def main(argv: list[str] | None = None) -> None:
     a = parse_args(argv)
     if a.pipeline_only:
         pipeline_child(a.pipeline_only, a.json_out)
-        return
+        from rangeproc.cli import leave
+        leave(0)                    # as the `rangeproc` command ends (no interpreter teardown)
     if a.first_call_only:
         first_call_child(a.kernel_steps)
         return

@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 
@@ -258,5 +259,37 @@ def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
     click.echo(format_report(metrics))
 
 
+def leave(code: int) -> NoReturn:
+    """End the process with exit status ``code`` without the interpreter's teardown.
+
+    Every output is written, closed and renamed into place before a command returns, so
+    nothing is left for the teardown to do but free memory one object at a time and unload
+    the compiled kernels: 0.9 s after a sample-sized run, more after a large one. Standard
+    streams and logging handlers are flushed first.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):                 # a closed or broken pipe
+            pass
+    logging.shutdown()
+    os._exit(code)
+
+
+def entry() -> NoReturn:
+    """The ``rangeproc`` console command: :func:`main`, then :func:`leave` with its exit
+    status (an uncaught exception or Ctrl-C still ends the ordinary way)."""
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        if exc.code is None or isinstance(exc.code, int):
+            code = exc.code or 0
+        else:                                          # sys.exit("message")
+            print(exc.code, file=sys.stderr)
+            code = 1
+    leave(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    entry()

@@ -385,3 +385,20 @@ def test_run_twice_gives_identical_fused_output(sample_run, tmp_path):
     pd.testing.assert_frame_equal(pd.read_parquet(first), pd.read_parquet(second),
                                   check_exact=True)
     assert first.read_bytes() == second.read_bytes()
+
+
+def test_the_console_command_leaves_with_the_commands_status_and_flushed_output(tmp_path):
+    """``rangeproc.cli.entry`` (the console script) ends without the interpreter's teardown:
+    the exit status is the command's and what it printed arrives whole."""
+    ok = subprocess.run([sys.executable, "-m", "rangeproc.cli", "--version"],
+                        capture_output=True, timeout=120)
+    assert ok.returncode == 0 and ok.stdout.decode().strip().endswith(rangeproc.__version__)
+    bad = subprocess.run([sys.executable, "-m", "rangeproc.cli", "run", "--quiet",
+                          str(tmp_path / "missing.toml")], capture_output=True, timeout=120)
+    assert bad.returncode == 2
+    lines = bad.stderr.decode().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rangeproc: error:") \
+        and "missing.toml" in lines[0]
+    usage = subprocess.run([sys.executable, "-m", "rangeproc.cli", "no-such-command"],
+                           capture_output=True, timeout=120)
+    assert usage.returncode == 2 and b"No such command" in usage.stderr
