@@ -6,7 +6,8 @@ A pending segment is scored against every object it overlaps in time (or comes w
 threads. A segment whose rows fit one object and then another is split where that gains
 more than ``SPLIT_GAIN``; otherwise each object most of its rows fit is a candidate link,
 scored by the sum of its rows' llr scaled to the segment's length
-(``hypotheses.best_hypotheses`` then picks the assignment).
+(``hypotheses.best_hypotheses`` then picks the assignment). A segment whose candidate
+objects are unchanged since it was last scored keeps its links (``Objects.link_cache``).
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ MIN_SPLIT_ROWS = 10
 
 
 def candidates(objects: Objects, seg: Segment, names: list[str], relay: bool
-                ) -> list[tuple[int, str]]:
+               ) -> list[tuple[int, str]]:
     """(index, name) of the objects whose span the segment comes within ``BRIDGE_SECONDS`` of
     (``relay``) or overlaps (not): the ones its rows are scored against."""
     out = []
