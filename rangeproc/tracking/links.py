@@ -120,7 +120,7 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
 def score_links(objects: Objects, pending: list[Segment], names: list[str],
                  new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
                  relay: bool) -> tuple[list[Segment], dict[tuple[int, int], float]]:
-    """Candidate links (pending index, object index) -> score (module docstring, step 3),
+    """Candidate links (pending index, object index) -> score (``tracking.synthesis`` step 3),
     after splitting the segments whose rows fit one object and then another
     (``SPLIT_GAIN``): the pending list may change."""
     out: list[Segment] = []
