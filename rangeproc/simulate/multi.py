@@ -45,8 +45,9 @@ from rangeproc.simulate.flights import (crossing_flights, event_time, formation_
 from rangeproc.simulate.multi_files import (TRUTH_ASSOCIATION, TRUTH_EVENTS, MultiScenario,
                                              association_table, config_text, events_json,
                                              truth_table)
+from rangeproc.simulate.files import atomic_write_table, atomic_write_text
 from rangeproc.simulate.scenario import (_ARCSEC, _ISO_EPOCH, _MRAD, LATENCY, _geo_at, _polar,
-                                         _r, atomic_write_table, atomic_write_text, draw_ship)
+                                         _r, draw_ship)
 from rangeproc.simulate.trajectory import Trajectory, plan_trajectory
 
 log = logging.getLogger(__name__)

@@ -10,8 +10,8 @@ import numpy as np
 
 from rangeproc.simulate import multi_sensors as ms
 from rangeproc.simulate import sensors as sn
-from rangeproc.simulate.scenario import (_geo_toml, _sigma_units, _toml, text_column,
-                                         trajectory_truth)
+from rangeproc.simulate.files import text_column
+from rangeproc.simulate.scenario import _geo_toml, _sigma_units, _toml, trajectory_truth
 
 TRUTH_ASSOCIATION = "truth_association.csv"
 TRUTH_EVENTS = "truth_events.json"

@@ -23,8 +23,9 @@ import numpy as np
 import pyarrow as pa
 
 from rangeproc.simulate import sensors as sn
+from rangeproc.simulate.files import int_column
 from rangeproc.simulate.scenario import (LASER_MAX_RANGE, TH_MAX_RANGE, TH_MIN_EL,
-                                         int_column, iso_file_times)
+                                         iso_file_times)
 from rangeproc.simulate.trajectory import Trajectory
 
 RADAR_MIN_EL, RADAR_MAX_RANGE = math.radians(0.5), 150e3  #: tracking radar coverage (rad, m)
