@@ -31,7 +31,6 @@ from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
-from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
@@ -43,8 +42,7 @@ from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.spline_filter import spline_params
-from rangeproc.estimation.tuning import (MAX_SEARCH_ROWS, local_process_noise,
-                                         start_process_noise)
+from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.refraction_rows import RefractionSettings, refraction_corrections
@@ -56,6 +54,7 @@ from rangeproc.fusion.registration import (
     register,
 )
 from rangeproc.fusion.spline_refine import spline_refine
+from rangeproc.quantiles import chi2_ppf
 
 log = logging.getLogger(__name__)
 

@@ -13,11 +13,10 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from rangeproc.quantiles import chi2_ppf, norm_pdf
-
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from rangeproc.quantiles import chi2_ppf, norm_pdf
 from rangeproc.report.common import (
     CYCLE,
     KIND_COLORS,
