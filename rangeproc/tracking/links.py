@@ -65,12 +65,12 @@ def _prefetch_scores(objects: Objects, segments: list[Segment], names: list[str]
                cost=lambda job: min(job[0].rows.size, SCORED_ROWS))
 
 
-def _scored_llr(objects: Objects, seg: Segment, names: list[str], relay: bool
+def _scored_llr(objects: Objects, seg: Segment, among: list[tuple[int, str]]
                 ) -> dict[int, np.ndarray]:
     """Object index -> per-row llr (M,) of the segment's scored rows (``spread(seg.rows,
-    SCORED_ROWS)``) against each candidate object (:func:`_candidates`)."""
+    SCORED_ROWS)``) against each of its candidate objects ``among`` (:func:`candidates`)."""
     out: dict[int, np.ndarray] = {}
-    for j, name in candidates(objects, seg, names, relay):
+    for j, name in among:
         if _stale(objects, seg, name):
             _score_into_cache(objects, seg, name)
         out[j] = objects.llr_cache[(seg.id, name)][1]
@@ -130,14 +130,14 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
     while queue:
         seg = queue.pop(0)
         # the same candidates at the same versions as last time: the same links, no split
-        versions = tuple((j, name, objects.version.get(name, 0))
-                         for j, name in candidates(objects, seg, names, relay))
+        among = candidates(objects, seg, names, relay)
+        versions = tuple((j, name, objects.version.get(name, 0)) for j, name in among)
         cached = objects.link_cache.get((seg.id, relay))
         if cached is not None and cached[0] == versions:
             seg_links = cached[1]
         else:
             scored = spread(seg.rows, SCORED_ROWS)
-            llr = _scored_llr(objects, seg, names, relay)
+            llr = _scored_llr(objects, seg, among)
             k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
             if gain > SPLIT_GAIN:
                 k_rows = int(np.searchsorted(seg.rows, scored[k]))

@@ -96,10 +96,6 @@ class Objects:
         #: {object index: score}): a segment none of whose candidates changed keeps its links
         self.link_cache: dict[tuple[int, bool], tuple[tuple, dict[int, float]]] = {}
 
-    def batch(self, name: str) -> MeasurementBatch:
-        """The object's rows for its quick trajectory (``QUICK_ROWS_PER_SENSOR`` at most)."""
-        return self.members_batch(self.members[name])
-
     def members_batch(self, members: Sequence[tuple[int, np.ndarray]]) -> MeasurementBatch:
         """The batch of member rows ``members`` ((sensor, rows) pairs), at most
         ``QUICK_ROWS_PER_SENSOR`` per sensor."""

@@ -274,7 +274,8 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         name = f"_new{len(discovered)}"
         objects.members[name] = [(seed.sensor, seed.rows)]
         pending = [s for s in pending if s.id != seed.id]
-        ahead = {k: v for k, v in ahead.items() if k in {s.id for s in seeds}}
+        seed_ids = {s.id for s in seeds}
+        ahead = {k: v for k, v in ahead.items() if k in seed_ids}
         if seed.id not in ahead:
             todo = [s for s in seeds[:LOOK_AHEAD] if s.id not in ahead]
             ahead.update(zip((s.id for s in todo), thread_map(
