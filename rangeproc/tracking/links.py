@@ -65,16 +65,30 @@ def _prefetch_scores(objects: Objects, segments: list[Segment], names: list[str]
                cost=lambda job: min(job[0].rows.size, SCORED_ROWS))
 
 
-def _scored_llr(objects: Objects, seg: Segment, among: list[tuple[int, str]]
-                ) -> dict[int, np.ndarray]:
+def _scored_llr(objects: Objects, seg: Segment, among: list[tuple[int, str]], relay: bool
+                ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
     """Object index -> per-row llr (M,) of the segment's scored rows (``spread(seg.rows,
-    SCORED_ROWS)``) against each of its candidate objects ``among`` (:func:`candidates`)."""
+    SCORED_ROWS)``) against each of its candidate objects ``among`` (:func:`candidates`),
+    and -> (M,) bool, the rows the object's own rows witness.
+
+    While associating (not ``relay``), a row more than ``OBSERVED_GAP_SECONDS`` from every
+    row of the object is neither evidence for it nor against it (llr 0): there the object's
+    trajectory is only bridged, and a bridge's sigma lets the rows of any object nearby
+    fit. A declared target's GPS outage of 20 s in a formation otherwise took the tracking
+    radar's rows of the aircraft 100-300 m beside it (formation seed 7: six identity
+    swaps). Rows in an object's gaps are scored when relays are (``relay``), among every
+    object that could continue there.
+    """
     out: dict[int, np.ndarray] = {}
+    known: dict[int, np.ndarray] = {}
+    t = objects.rows[seg.sensor].t[spread(seg.rows, SCORED_ROWS)]
     for j, name in among:
         if _stale(objects, seg, name):
             _score_into_cache(objects, seg, name)
-        out[j] = objects.llr_cache[(seg.id, name)][1]
-    return out
+        llr = objects.llr_cache[(seg.id, name)][1]
+        known[j] = np.ones(t.size, dtype=bool) if relay else objects.witnessed(name, t)
+        out[j] = llr if known[j].all() else np.where(known[j], llr, 0.0)
+    return out, known
 
 
 def best_split(llr: Mapping[int, np.ndarray], min_part: int) -> tuple[int, float]:
@@ -137,7 +151,7 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
             seg_links = cached[1]
         else:
             scored = spread(seg.rows, SCORED_ROWS)
-            llr = _scored_llr(objects, seg, among)
+            llr, known = _scored_llr(objects, seg, among, relay)
             k, gain = best_split(llr, max(MIN_SPLIT_ROWS, scored.size // 50))
             if gain > SPLIT_GAIN:
                 k_rows = int(np.searchsorted(seg.rows, scored[k]))
@@ -147,7 +161,8 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
                 continue
             seg_links = {j: float(v.sum()) * seg.rows.size / scored.size
                          for j, v in llr.items()
-                         if v.sum() > 0.0 and (v > 0.0).mean() >= MIN_FIT_SHARE}
+                         if v.sum() > 0.0 and known[j].any()
+                         and (v[known[j]] > 0.0).mean() >= MIN_FIT_SHARE}
             objects.link_cache[(seg.id, relay)] = (versions, seg_links)
         i = len(out)
         out.append(seg)

@@ -28,6 +28,10 @@ from rangeproc.tracking.score import ObjectTrack
 OVERLAP_SECONDS = 5.0
 #: Output rate (Hz) of the quick trajectories used for scoring.
 SCORING_RATE_HZ = 10.0
+#: While associating, a segment's row farther than this (s) from every row of an object is
+#: neither evidence for nor against it (``tracking.links._scored_llr``): the object's
+#: trajectory there is a bridge across a gap in its data.
+OBSERVED_GAP_SECONDS = 5.0
 #: Rows per sensor of an object's quick trajectory: at most these many, evenly spread
 #: (association needs the shape of a track, not every row).
 QUICK_ROWS_PER_SENSOR = 5_000
@@ -84,8 +88,11 @@ class Objects:
         self.sensor_ids = sensor_ids
         self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None,
                                 q_search_rows=QUICK_Q_SEARCH_ROWS)
+        self.noise_passes = settings.noise_passes
         self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
         self.tracks: dict[str, ObjectTrack] = {}
+        #: per object, the sorted times (s) of its member rows when its trajectory was adopted
+        self.member_t: dict[str, np.ndarray] = {}
         #: per object, how often its trajectory was estimated (the scores' cache key)
         self.version: dict[str, int] = {}
         #: (segment id, object) -> (object version, per-row llr of the segment's scored rows):
@@ -129,14 +136,39 @@ class Objects:
             return None
         return object_track(result) if result.grid.any() else None
 
+    def refined_track(self, name: str) -> ObjectTrack | None:
+        """Object ``name``'s trajectory with one refinement pass of the full estimate
+        (re-linearised at the first pass's smoothed track, noise re-estimated), on the quick
+        trajectory's rows; None when it cannot be started. (One pass repaired the cases
+        seen, ``tracking.synthesis._doubtful``; a second costs a third more.)"""
+        try:
+            result = fuse_target(self.members_batch(self.members[name]), SCORING_RATE_HZ,
+                                 replace(self.settings, noise_passes=min(1, self.noise_passes)),
+                                 prior=self.priors.get(name))
+        except NoPositionFix:
+            return None
+        return object_track(result) if result.grid.any() else None
+
     def adopt(self, name: str, track: ObjectTrack | None) -> bool:
-        """Make ``track`` object ``name``'s quick trajectory (a new version); False (and
-        nothing changes) when it is None."""
+        """Make ``track`` object ``name``'s quick trajectory (a new version) and note the
+        times of its member rows (:meth:`witnessed`); False (and nothing changes) when it
+        is None."""
         if track is None:
             return False
         self.tracks[name] = track
         self.version[name] = self.version.get(name, 0) + 1
+        times = [self.rows[i].t[sel] for i, sel in self.members.get(name, [])]
+        self.member_t[name] = np.sort(np.concatenate(times)) if times else track.t
         return True
+
+    def witnessed(self, name: str, t: np.ndarray) -> np.ndarray:
+        """(N,) bool: times ``t`` (N,) s within ``OBSERVED_GAP_SECONDS`` of a member row of
+        object ``name`` (as of its current trajectory)."""
+        mt = self.member_t[name]
+        k = np.searchsorted(mt, t)
+        before = np.abs(t - mt[np.clip(k - 1, 0, mt.size - 1)])
+        after = np.abs(mt[np.clip(k, 0, mt.size - 1)] - t)
+        return np.minimum(before, after) <= OBSERVED_GAP_SECONDS
 
 
 def overlaps(t0: float, t1: float, u0: float, u1: float) -> bool:
