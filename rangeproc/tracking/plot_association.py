@@ -9,8 +9,12 @@ carried to the plot time, ``S = H P Hᵀ + R``); within each scan the plots and 
 whose chi-square gate (probability ``GATE_PROBABILITY``) they pass are paired by the
 assignment of the largest summed log-likelihood ratio, an object taking at most one plot per
 scan (it is detected once per scan); a plot that loses its scan's assignment is unassigned,
-one that no object gates stays where its plot track put it (a sparse object's own quick
-trajectory may be too poor to gate all of its plots). An object tracked
+one that no object gates stays where its plot track put it if that object is less certain
+than the plot there (a sparse object's own quick trajectory may be too poor to gate all of
+its plots; ``tracking.synthesis``), and is unassigned otherwise. A plot is scored against
+the object whose plot track holds it as if left out of that object's trajectory
+(``tracking.score.score_rows_left_out``): a sparse object's track leans towards its own
+plots, which would otherwise keep winning plots the plot tracker gave it wrongly. An object tracked
 precisely by another sensor thereby takes its own plots back from an object that only the
 surveillance radar sees.
 """
@@ -23,7 +27,7 @@ from scipy.optimize import linear_sum_assignment
 from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.tracking.score import ObjectTrack, score_rows
+from rangeproc.tracking.score import ObjectTrack, score_rows, score_rows_left_out
 
 #: Chi-square gate probability of a plot against an object.
 GATE_PROBABILITY = 0.9999
@@ -34,15 +38,17 @@ BIG = 1e12
 
 
 def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
-                tracks: Sequence[ObjectTrack | None], scan: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+                tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
+                member: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(owner (P,): index into ``tracks`` of the object each plot row goes to, -1 for none;
     gated (P,) bool: some object's gate holds the plot).
 
     batch: one sensor's rows as a batch; plots: (P,) row indices of its plots; tracks: the
     objects' quick trajectories (None: the object has none); scan: (P,) scan number of each
-    plot. Within a scan an object takes at most one plot and a plot goes to at most one object:
-    the assignment maximising the summed log-likelihood ratio over the gated pairs
+    plot; member: (P,) index into ``tracks`` of the object whose trajectory each plot
+    helped estimate (-1 none), scored as left out of it (None: plain scores). Within a scan
+    an object takes at most one plot and a plot goes to at most one object: the assignment
+    maximising the summed log-likelihood ratio over the gated pairs
     (``scipy.optimize.linear_sum_assignment``). Module docstring for the gate.
     """
     owner = np.full(plots.size, -1, dtype=np.int64)
@@ -59,7 +65,10 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
                                 & (t <= track.t[-1] + SPAN_MARGIN_SECONDS))
         if inside.size == 0:
             continue
-        _, nis, ll = score_rows(batch, plots[inside], track)
+        if member is None:
+            _, nis, ll = score_rows(batch, plots[inside], track)
+        else:                         # its own plots as if left out of its trajectory
+            _, nis, ll = score_rows_left_out(batch, plots[inside], track, member[inside] == j)
         ok = nis <= gate[inside]
         llr[inside[ok], j] = ll[ok]
     gated = np.isfinite(llr).any(axis=1)

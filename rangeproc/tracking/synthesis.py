@@ -31,7 +31,10 @@
    other object in time is that target seen at another time (a GPS on another time scale, a
    long outage) and joins it.
 5. **Plots, one by one** (``tracking.plot_association``): every plot of a plot-tracked
-   sensor goes to the object it fits best within the gates, one per object and scan. An
+   sensor goes to the object it fits best within the gates, one per object and scan (its own
+   object's trajectory scored as if it had been left out); a plot no object gates stays with
+   its plot track's object only where that object is less certain than the plot
+   (``_uncertain_at``: a precise object does not keep a plot it cannot gate). An
    object whose quick trajectory gates some of its own plots nowhere, while being less
    certain than those plots there, is re-estimated with a refinement pass
    (``_doubtful``, ``Objects.refined_track``), and the plots no object gated are associated
@@ -344,7 +347,8 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             for sensor, sel in objects.members.get(k, []):
                 if sensor == i:
                     before[np.isin(rows, sel)] = j
-        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan)
+        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan,
+                                   before)
         doubtful = _doubtful(objects, keys, batch, rows, before, gated)
         if doubtful:          # quick trajectories that miss their own plots: refined, and
             #                   the plots no object gated are associated again
@@ -352,10 +356,14 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             for k, track in zip(doubtful, refined):
                 objects.adopt(k, track)
             again, gated_again = plot_owners(batch, rows, [objects.tracks[k] for k in keys],
-                                             scan)
+                                             scan, before)
             rescue = ~gated & gated_again
             owner, gated = np.where(rescue, again, owner), gated | gated_again
-        owner = np.where(gated, owner, before)
+        keep = before >= 0                 # an ungated plot stays with its plot track's
+        for j in np.unique(before[keep & ~gated]):     # object only where that object is
+            own = (before == j) & ~gated               # less certain than the plot
+            keep[own] = _uncertain_at(objects.tracks[keys[j]], batch, rows[own])
+        owner = np.where(gated, owner, np.where(keep, before, -1))
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
@@ -369,15 +377,19 @@ def _doubtful(objects: Objects, keys: list[str], batch: MeasurementBatch, rows: 
     the plot: a first pass badly linearised where the plots alone range the object, which
     the refinement passes repair. A precise trajectory (GPS) that misses a plot has met a
     wild plot, not its own error."""
-    out = []
-    for j in np.unique(before[(before >= 0) & ~gated]):
-        track = objects.tracks[keys[j]]
-        sel = rows[(before == j) & ~gated]
-        k = np.clip(np.searchsorted(track.t, batch.t[sel]), 0, track.t.size - 1)
-        spread_m = np.sqrt(np.trace(track.P[k, :3, :3], axis1=1, axis2=2))
-        if (spread_m > batch.sigma[sel, 0]).any():
-            out.append(keys[j])
-    return out
+    return [keys[j] for j in np.unique(before[(before >= 0) & ~gated])
+            if _uncertain_at(objects.tracks[keys[j]], batch,
+                             rows[(before == j) & ~gated]).any()]
+
+
+def _uncertain_at(track: ObjectTrack, batch: MeasurementBatch, sel: np.ndarray) -> np.ndarray:
+    """(M,) bool: at the times of ``batch`` rows ``sel`` (M,), the trajectory's position
+    sigma (root of the trace, m) exceeds the row's range sigma, or the trajectory does not
+    reach that time (a quick trajectory may start after its object's first plots)."""
+    t = batch.t[sel]
+    k = np.clip(np.searchsorted(track.t, t), 0, track.t.size - 1)
+    spread_m = np.sqrt(np.trace(track.P[k, :3, :3], axis1=1, axis2=2))
+    return (spread_m > batch.sigma[sel, 0]) | (t < track.t[0]) | (t > track.t[-1])
 
 
 def _name_objects(objects: Objects, declared: Sequence[str], anchored: list[str],

@@ -209,3 +209,24 @@ def test_a_declared_target_in_a_gps_outage_does_not_take_its_neighbours_rows(
     run(simulate_multi(tmp_path / "before", kind="formation", seed=7))
     swaps, purity = swaps_and_purity(tmp_path / "before")
     assert swaps > 0 and purity < 0.9
+
+
+def test_a_precise_object_does_not_keep_a_plot_it_cannot_gate(tmp_path, monkeypatch) -> None:
+    """mixed, seed 10 (of seeds 6-10): U2 and U3 fly in formation 230 m apart, U2 also
+    tracked by R1. The plot tracker put U3's plot at 221.8 s in U2's plot track; no object
+    gated it, and an ungated plot stayed where its plot track put it, so U2's object, whose
+    position R1 knows to 2 m, kept a plot 230 m off. A plot no object gates now stays only
+    with an object less certain than the plot there."""
+    def foreign_plots(folder) -> int:
+        table = _association(folder)
+        radar = table[(table.sensor == "R1") & (table.true == "U2")]
+        u2_object = radar.target_id.value_counts().index[0]
+        plots = table[(table.sensor == "SR1") & (table.target_id == u2_object)]
+        return int((plots.true == "U3").sum())
+
+    run(simulate_multi(tmp_path / "now", kind="mixed", seed=10))
+    assert foreign_plots(tmp_path / "now") <= 1          # the first scan's, 14 s before R1
+    monkeypatch.setattr(synthesis, "_uncertain_at", lambda track, batch, sel: np.ones(
+        sel.size, dtype=bool))
+    run(simulate_multi(tmp_path / "before", kind="mixed", seed=10))
+    assert foreign_plots(tmp_path / "before") >= 2
