@@ -200,7 +200,8 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
             d = p[rows][None] - xs[:, :, :3]
             m2 = np.einsum("lai,lai->la", d, np.linalg.solve(S, d[..., None])[..., 0])
             ok = (m2 <= gate).T                      # (A, L)
-            cost[ok] = (m2 + np.linalg.slogdet(S)[1]).T[ok]
+            with np.errstate(invalid="ignore"):      # a pair outside the gate may be NaN
+                cost[ok] = (m2 + np.linalg.slogdet(S)[1]).T[ok]
         taken = np.zeros(rows.size, dtype=bool)
         if live and rows.size:
             big = 1e12
