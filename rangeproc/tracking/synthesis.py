@@ -34,7 +34,9 @@
    sensor goes to the object it fits best within the gates, one per object and scan (its own
    object's trajectory scored as if it had been left out); a plot no object gates stays with
    its plot track's object only where that object is less certain than the plot
-   (``_uncertain_at``: a precise object does not keep a plot it cannot gate). An
+   (``_uncertain_at``: a precise object does not keep a plot it cannot gate) and the plot
+   lies inside the looser gate ``KEEP_PROBABILITY`` of it (a clutter plot taken in a missed
+   scan is not kept). An
    object whose quick trajectory gates some of its own plots nowhere, while being less
    certain than those plots there, is re-estimated with a refinement pass
    (``_doubtful``, ``Objects.refined_track``), and the plots no object gated are associated
@@ -62,6 +64,7 @@ from rangeproc.fusion.centralised import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
+from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.links import conflicts, score_links
 from rangeproc.tracking.objects import (
@@ -83,7 +86,7 @@ from rangeproc.tracking.relay import (
     relay_lone_objects,
     stitch,
 )
-from rangeproc.tracking.score import ObjectTrack
+from rangeproc.tracking.score import ObjectTrack, score_rows_left_out
 from rangeproc.tracking.segments import segment_track
 
 log = logging.getLogger(__name__)
@@ -104,6 +107,12 @@ LOOK_AHEAD = 2
 #: Relative cost of an anchored object's quick trajectory per row (the process-noise search's
 #: filters and the smoother) against a segmented row, to start the slowest jobs first.
 ANCHOR_COST = 4
+#: A plot no object gates stays with its plot track's object (less certain than the plot
+#: there) only inside this chi-square probability of that object, scored as left out of it:
+#: a looser gate than the association's, for a trajectory too poor to gate all of its own
+#: plots, but a clutter plot the plot tracker took in a missed scan (surveillance seed 6:
+#: NIS 100 against its own object, 108 m RMSE against 76 m) is not kept.
+KEEP_PROBABILITY = 1.0 - 1e-6
 
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
@@ -361,8 +370,12 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             owner, gated = np.where(rescue, again, owner), gated | gated_again
         keep = before >= 0                 # an ungated plot stays with its plot track's
         for j in np.unique(before[keep & ~gated]):     # object only where that object is
-            own = (before == j) & ~gated               # less certain than the plot
-            keep[own] = _uncertain_at(objects.tracks[keys[j]], batch, rows[own])
+            own = np.flatnonzero((before == j) & ~gated)    # less certain than the plot and
+            track = objects.tracks[keys[j]]                 # it is no outlier of that object
+            _, nis, _ = score_rows_left_out(batch, rows[own], track, np.ones(own.size, bool))
+            dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
+            keep[own] = (_uncertain_at(track, batch, rows[own])
+                         & (nis <= chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))))
         owner = np.where(gated, owner, np.where(keep, before, -1))
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
