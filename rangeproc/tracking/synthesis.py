@@ -315,6 +315,8 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
                    key=lambda s: s.id)
     plot_owner = _reassociate_plots(objects, [*anchored, *discovered], final, clutter)
+    # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
+    discovered = [k for k in discovered if objects.members.get(k)]
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
                if k in names and objects.members.get(k)}
