@@ -35,8 +35,8 @@
    object's trajectory scored as if it had been left out); a plot no object gates stays with
    its plot track's object only where that object is less certain than the plot
    (``_uncertain_at``: a precise object does not keep a plot it cannot gate) and the plot
-   lies inside the looser gate ``KEEP_PROBABILITY`` of it (a clutter plot taken in a missed
-   scan is not kept). An
+   is no lone outlier of it (``_isolated_outliers``: a clutter plot taken in a missed scan
+   is not kept). An
    object whose quick trajectory gates some of its own plots nowhere, while being less
    certain than those plots there, is re-estimated with a refinement pass
    (``_doubtful``, ``Objects.refined_track``), and the plots no object gated are associated
@@ -108,10 +108,10 @@ LOOK_AHEAD = 2
 #: filters and the smoother) against a segmented row, to start the slowest jobs first.
 ANCHOR_COST = 4
 #: A plot no object gates stays with its plot track's object (less certain than the plot
-#: there) only inside this chi-square probability of that object, scored as left out of it:
-#: a looser gate than the association's, for a trajectory too poor to gate all of its own
-#: plots, but a clutter plot the plot tracker took in a missed scan (surveillance seed 6:
-#: NIS 100 against its own object, 108 m RMSE against 76 m) is not kept.
+#: there) unless it is a lone outlier of that object (``_isolated_outliers``): outside this
+#: chi-square probability of it, scored as left out, while its neighbours are inside. A
+#: clutter plot the plot tracker took in a missed scan (surveillance seed 6: NIS 100 against
+#: its own object, 108 m RMSE against 76 m) is not kept.
 KEEP_PROBABILITY = 1.0 - 1e-6
 
 #: ``reason`` values of the association table.
@@ -373,11 +373,9 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
         keep = before >= 0                 # an ungated plot stays with its plot track's
         for j in np.unique(before[keep & ~gated]):     # object only where that object is
             own = np.flatnonzero((before == j) & ~gated)    # less certain than the plot and
-            track = objects.tracks[keys[j]]                 # it is no outlier of that object
-            _, nis, _ = score_rows_left_out(batch, rows[own], track, np.ones(own.size, bool))
-            dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
-            keep[own] = (_uncertain_at(track, batch, rows[own])
-                         & (nis <= chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))))
+            keep[own] = (_uncertain_at(objects.tracks[keys[j]], batch, rows[own])  # it is no
+                         & ~_isolated_outliers(objects.tracks[keys[j]], batch, rows,  # lone
+                                               before == j, own))                    # outlier
         owner = np.where(gated, owner, np.where(keep, before, -1))
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
@@ -395,6 +393,24 @@ def _doubtful(objects: Objects, keys: list[str], batch: MeasurementBatch, rows: 
     return [keys[j] for j in np.unique(before[(before >= 0) & ~gated])
             if _uncertain_at(objects.tracks[keys[j]], batch,
                              rows[(before == j) & ~gated]).any()]
+
+
+def _isolated_outliers(track: ObjectTrack, batch: MeasurementBatch, rows: np.ndarray,
+                       mine: np.ndarray, sel: np.ndarray) -> np.ndarray:
+    """(S,) bool for the plots ``rows[sel]`` (S,) of the object of ``track`` (``mine`` (P,):
+    which of ``rows`` are its plots): outside the chi-square gate ``KEEP_PROBABILITY`` of the
+    object's trajectory (scored as left out of it) while its plots before and after in time
+    are inside: a lone outlier, e.g. a clutter plot the plot tracker took in a scan that
+    missed the object. A run of such plots is the trajectory's failure, not the plots', and
+    is kept (the scale scenario's `U5` lost its object when its runs were dropped)."""
+    own = np.flatnonzero(mine)
+    _, nis, _ = score_rows_left_out(batch, rows[own], track, np.ones(own.size, bool))
+    dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
+    out = nis > chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))     # NaN: not outside
+    lone = out.copy()
+    lone[1:] &= ~out[:-1]
+    lone[:-1] &= ~out[1:]
+    return lone[np.searchsorted(own, sel)]
 
 
 def _uncertain_at(track: ObjectTrack, batch: MeasurementBatch, sel: np.ndarray) -> np.ndarray:

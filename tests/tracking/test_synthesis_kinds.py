@@ -236,8 +236,8 @@ def test_a_clutter_plot_in_a_missed_scan_is_not_kept(tmp_path, monkeypatch) -> N
     """surveillance, seed 6 (of seeds 6-10): the radar missed U2 in one scan and the plot
     tracker took a clutter plot there. Scored as left out of U2's trajectory it lies at NIS
     100; an ungated plot stayed with its plot track's object whenever that object was less
-    certain than the plot, and U2 was at 108 m against 76 m with its true rows. Such a plot
-    is now kept only inside a looser gate of its own object (``KEEP_PROBABILITY``)."""
+    certain than the plot, and U2 was at 108 m against 76 m with its true rows. A lone
+    outlier of its own object is no longer kept (``_isolated_outliers``)."""
     def clutter_kept(folder) -> int:
         table = _association(folder)
         plots = table[table.sensor == "SR1"]
