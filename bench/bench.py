@@ -227,7 +227,7 @@ def filter_rows(a: argparse.Namespace, d: peers.RadarData, ekf_us: float, ukf_us
         us = s / len(d.t) * 1e6
         rows[name] = {"us_per_meas": us, "ratio_to_base": us / base_us,
                       "ratio_to_ekf": us / ekf_us, "first_call_s": first_s, "times_s": times}
-    from rangeproc.fusion.centralised import imm_generator
+    from rangeproc.fusion.passes import imm_generator
     from rangeproc.settings import IMM_MODELS
     codes = np.array([IMM_MODELS.index(m) for m in p.imm_models])
     imm_args = (*peers.rangeproc_inputs(d)[:16], codes,

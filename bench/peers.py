@@ -146,7 +146,7 @@ def rangeproc_imm_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarra
     IMM filter + Kim's smoother (pruning as the pipeline). Returns (xf, xs, Ps packed)."""
     from rangeproc.estimation.imm import imm_forward
     from rangeproc.estimation.imm_smoother import imm_smooth
-    from rangeproc.fusion.centralised import IMM_PRUNE
+    from rangeproc.fusion.passes import IMM_PRUNE
     codes, lam = args[16], args[17]
     out = imm_forward(*args)
     xs, Ps, _ = imm_smooth(args[0], out[2], out[3], out[4], out[5], args[11], codes, lam,

@@ -30,20 +30,15 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
 
 import numpy as np
 
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
-from rangeproc.estimation.forward import EKF, NO_SPLINE, kalman_forward
-from rangeproc.estimation.imm import CA, CV, MODEL_NAMES, imm_forward
-from rangeproc.estimation.imm_smoother import imm_smooth
+from rangeproc.estimation.forward import EKF
+from rangeproc.estimation.imm import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
-from rangeproc.estimation.residuals import smoothed_residuals
-from rangeproc.estimation.rts import rts_smooth
-from rangeproc.estimation.spline_filter import spline_params
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, local_process_noise, start_process_noise
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
@@ -53,6 +48,7 @@ from rangeproc.fusion.lead_in import (
     reversed_prior,
     time_reversed,
 )
+from rangeproc.fusion.passes import PassResult, corrected_residuals, imm_start, run_pass
 from rangeproc.fusion.refraction_rows import RefractionSettings, refraction_corrections
 from rangeproc.fusion.registration import (
     Calibration,
@@ -66,15 +62,6 @@ from rangeproc.quantiles import chi2_ppf
 
 log = logging.getLogger(__name__)
 
-#: Relative weight below which a model pair (or a model) is left out of the IMM smoother
-#: (``estimation.imm_smoother``): a pair carrying under 5 % of its model's smoothing weight
-#: moves that model's smoothed mean by under 5 % of the pairs' difference, itself small over
-#: one step (on a straight-turn-straight flight the smoothed RMSE is 2 % above 1 % pruning's,
-#: still 8 % under the CA smoother's); it halves the smoother's cost against 1 %.
-IMM_PRUNE = 5e-2
-#: Variance factor on the first pass's smoothed first-epoch acceleration covariance that
-#: starts the IMM's refinement passes (``imm_start``).
-IMM_START_WIDENING = 10.0
 #: The lead-in's models (``_fuse_with_lead_in``): constant velocity and constant acceleration.
 LEAD_IN_MODELS = (CV, CA)
 #: Packed entries of the kinematic 9x9 block (the first of the packed lower triangle).
@@ -214,135 +201,6 @@ def _epochs(t_rows: np.ndarray, grid_t: np.ndarray) -> tuple[np.ndarray, np.ndar
     grid = np.zeros(len(epoch_t), dtype=bool)
     grid[np.searchsorted(epoch_t, grid_t)] = True
     return epoch_t, meas_epoch.astype(np.int64), grid
-
-
-def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
-    """(N, 6) bool: component measured and not rejected by the gate (bit mask ``rejected``)."""
-    bits = (rejected[:, None] >> np.arange(z.shape[1])[None, :]) & 1
-    return np.isfinite(z) & (bits == 0)
-
-
-class PassResult(NamedTuple):
-    """One filter + smoother pass: smoothed ``xs`` (E, n), packed ``Ps``; ``em`` (E,) the EM
-    process-noise statistic (None for the IMM, whose models carry their own dynamics); per row
-    ``nis``, ``dof``, ``used`` (N, 6), ``res``, ``hph`` (N, 6); divergence-guard ``resets``;
-    the ``batch`` with the sigmas used; ``model_prob`` (E, r) the IMM's smoothed model
-    probabilities (None otherwise); ``knots`` the spline filter's anomaly times (s; empty
-    for the other filters)."""
-
-    xs: np.ndarray
-    Ps: np.ndarray
-    em: np.ndarray | None
-    nis: np.ndarray
-    dof: np.ndarray
-    used: np.ndarray
-    res: np.ndarray
-    hph: np.ndarray
-    resets: int
-    batch: MeasurementBatch
-    model_prob: np.ndarray | None = None
-    knots: np.ndarray | None = None
-
-
-def _run(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
-         maneuver_norm: float = 0.0) -> PassResult:
-    """One filter + smoother pass; returns the smoothed track, gate results and residuals."""
-    model_prob = None
-    try:
-        if st.imm_models:
-            xs, Ps, model_prob, nis, dof, rej, resets = _run_imm(batch, epoch_t, meas_epoch,
-                                                                 x0, P0, q, gate, st, x_lin)
-            em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
-        else:
-            xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade, jerk, _, knot = \
-                kalman_forward(
-                    epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-                    batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
-                    st.reset_inflation, x_lin, st.method, np.asarray(st.ukf, dtype=np.float64),
-                    st.adapt_window, st.adapt_mean, maneuver_norm,
-                    np.asarray(st.stf, dtype=np.float64),
-                    spline_params(st.spline_probability) if st.spline else NO_SPLINE)
-            if knot.shape[0]:
-                log.info("spline filter: %d anomaly knots", int(knot.sum()))
-            elif fade.shape[0]:
-                faded = fade.max(axis=1) > 1.0
-                log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
-                         int(faded.sum()), len(faded), float(fade.max()))
-            xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
-                                    fade if fade.shape[0] else None,
-                                    jerk if jerk.shape[0] else None)
-    except FloatingPointError as exc:
-        raise NumericalError(f"estimator failed: {exc}") from exc
-    if not np.isfinite(xs).all():
-        raise NumericalError("estimator failed: non-finite smoothed state")
-    res, hph = smoothed_residuals(meas_epoch, batch.model, batch.z, batch.s, batch.sv,
-                                  batch.Qr, xs, Ps)
-    if sigma_used.shape[0]:                  # adapted in the filter: report what it used
-        batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
-    return PassResult(xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets,
-                      batch, model_prob, epoch_t[knot] if knot.shape[0] else epoch_t[:0])
-
-
-def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,
-                        meas_epoch: np.ndarray) -> np.ndarray:
-    """The pass's residuals (N, 6) with those of the rows of ``sensors`` (indices), whose
-    values were just corrected, recomputed (same smoothed track; ``hph`` changes only to
-    second order)."""
-    rows = np.flatnonzero(np.isin(b.sensor, list(sensors)))
-    res = out.res.copy()
-    res[rows], _ = smoothed_residuals(meas_epoch[rows], b.model[rows], b.z[rows], b.s[rows],
-                                      b.sv[rows], b.Qr[rows], out.xs, out.Ps)
-    return res
-
-
-def imm_generator(n_models: int, sojourn: float) -> np.ndarray:
-    """(r, r) model-switching generator (1/s): mean time ``sojourn`` (s) in each model, a
-    switch going to each other model alike."""
-    if n_models == 1:
-        return np.zeros((1, 1))
-    lam = np.full((n_models, n_models), 1.0 / (sojourn * (n_models - 1)))
-    np.fill_diagonal(lam, -1.0 / sojourn)
-    return lam
-
-
-def imm_start(first: PassResult, x0: np.ndarray, P0: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """The IMM's start in the refinement passes: the span's own prior ``x0, P0`` for position
-    and velocity, the acceleration as the first pass (the constant-acceleration EKF and RTS
-    smoother) estimated it at the first epoch, its variance widened
-    :data:`IMM_START_WIDENING` times.
-
-    From a wide acceleration prior every model is still learning the motion for seconds and
-    the simplest wins on Occam's razor (a 3 g thrust looks like constant velocity to the
-    likelihoods); Kim's smoother, which does not re-weigh models with smoothed states, then
-    extrapolated the start hundreds of metres off (seed 004's experiment). Told the
-    acceleration, the right model explains the data from the first fix. Position and
-    velocity keep the honest prior: where they are weakly observed (range rates alone) a
-    smoothed start counted twice made the result overconfident.
-    """
-    n = first.xs.shape[1]
-    Ps = np.empty((n, n))
-    unpack(first.Ps[0], Ps)
-    x, P = x0.copy(), P0.copy()
-    x[6:9] = first.xs[0, 6:9]
-    P[6:9, :] = 0.0
-    P[:, 6:9] = 0.0
-    P[6:9, 6:9] = IMM_START_WIDENING * Ps[6:9, 6:9]
-    return x, P
-
-
-def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
-    """The IMM filter and Kim's smoother (``estimation.imm``)."""
-    codes = np.asarray(st.imm_models, dtype=np.int64)
-    lam = imm_generator(len(codes), st.imm_sojourn)
-
-    out = imm_forward(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
-                      batch.sv, batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
-                      st.reset_inflation, x_lin, codes, lam,
-                      np.full(len(codes), 1.0 / len(codes)))
-    _, _, xm, Pm, mu, omega, nis, dof, rej, _, resets = out
-    xs, Ps, mus = imm_smooth(epoch_t, xm, Pm, mu, omega, q, codes, lam, IMM_PRUNE)
-    return xs, Ps, mus, nis, dof, rej, resets
 
 
 def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
@@ -528,7 +386,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
-    first = _run(batch, epoch_t, meas_epoch, x0, P0, q, gate,
+    first = run_pass(batch, epoch_t, meas_epoch, x0, P0, q, gate,
                  replace(settings, imm_models=(), stf=()), x_lin)
     if settings.askf and rho is None:
         rho = estimate_norm(first.xs[grid][:, 6:9])
@@ -570,7 +428,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
             before, q_before = out, q_used
             try:
-                out = _run(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs,
+                out = run_pass(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs,
                            rho or 0.0)
                 failed = ""
             except NumericalError as exc:       # the pass before stands (its track is sound)

@@ -120,7 +120,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
                                   track=np.full(t.size, -1), **rows))], ("G1",))
     settings = centralised.EstimatorSettings(noise_passes=2)
     calls = {"n": 0}
-    real = centralised._run
+    real = centralised.run_pass
 
     def second_fails(*args, **kwargs):
         calls["n"] += 1
@@ -130,7 +130,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
 
     reference = centralised.fuse_target(batch, 10.0, centralised.EstimatorSettings(
         noise_passes=0))
-    monkeypatch.setattr(centralised, "_run", second_fails)
+    monkeypatch.setattr(centralised, "run_pass", second_fails)
     result = centralised.fuse_target(batch, 10.0, settings)
     assert calls["n"] == 2                          # the failed pass ends the refinement
     assert np.isfinite(result.xs).all()

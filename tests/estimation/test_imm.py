@@ -17,7 +17,7 @@ from rangeproc.estimation.imm import (
 )
 from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.fusion.centralised import imm_generator
+from rangeproc.fusion.passes import imm_generator
 from rangeproc.models.measurement import CARTESIAN
 
 UKF_UNUSED = np.array([1.0, 2.0, -6.0])
