@@ -200,11 +200,18 @@ def row_llr(sel: np.ndarray, model: np.ndarray, z: np.ndarray, offset: np.ndarra
             d2 += nu[a] * w[a, 0]
         nis[i] = d2
         log_ratio = -0.5 * d2 - 0.5 * logdet[i] - 0.5 * m * math.log(2.0 * math.pi) + log_ext[i]
-        if log_ratio > 700.0:
-            llr[i] = log_ratio + math.log(1.0 - eps)
-        else:
-            llr[i] = math.log((1.0 - eps) * math.exp(log_ratio) + eps)
+        llr[i] = mixture_llr(log_ratio, eps)
     return res, nis, llr
+
+
+@njit(cache=True, nogil=True)
+def mixture_llr(log_ratio: float, eps: float) -> float:
+    """A row's llr from its Gaussian log ratio against the unrelated density: the mixture
+    ``log((1 - eps) exp(log_ratio) + eps)`` (an outlier of the object costs at most log eps),
+    without overflow."""
+    if log_ratio > 700.0:
+        return log_ratio + math.log(1.0 - eps)
+    return math.log((1.0 - eps) * math.exp(log_ratio) + eps)
 
 
 def _geometry(batch: MeasurementBatch, sel: np.ndarray, track: ObjectTrack) -> tuple:
@@ -255,11 +262,8 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
         w = np.linalg.solve(Ld, res[i, comp])
         nis[i] = float(w @ w)
         logdet_c = 2.0 * float(np.log(np.diag(R)).sum() - np.log(np.diag(Ld)).sum())
-        log_ratio = (-0.5 * nis[i] - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
-                     + log_ext[i])
-        llr[i] = (log_ratio + math.log(1.0 - OUTLIER_PROBABILITY) if log_ratio > 700.0 else
-                  math.log((1.0 - OUTLIER_PROBABILITY) * math.exp(log_ratio)
-                           + OUTLIER_PROBABILITY))
+        llr[i] = mixture_llr(-0.5 * nis[i] - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
+                             + log_ext[i], OUTLIER_PROBABILITY)
     return res, nis, llr
 
 
