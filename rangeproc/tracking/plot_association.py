@@ -12,11 +12,14 @@ scan (it is detected once per scan); a plot that loses its scan's assignment is 
 one that no object gates stays where its plot track put it if that object is less certain
 than the plot there (a sparse object's own quick trajectory may be too poor to gate all of
 its plots; ``tracking.synthesis``), and is unassigned otherwise. A plot is scored against
-the object whose plot track holds it as if left out of that object's trajectory
+the object whose plot track holds it as if left out of that object's trajectory, and
+every other plot of the scan against that same trajectory without it
 (``tracking.score.score_rows_left_out``): a sparse object's track leans towards its own
-plots, which would otherwise keep winning plots the plot tracker gave it wrongly. An object tracked
-precisely by another sensor thereby takes its own plots back from an object that only the
-surveillance radar sees.
+plots, which would otherwise keep winning plots the plot tracker gave it wrongly, and keep
+its true plot of the scan, scored against a track drawn to the wrong one, out. An object
+tracked precisely by another sensor thereby takes its own plots back from an object that
+only the surveillance radar sees, and two objects whose plots the plot tracker swapped in
+a scan exchange them (``mixed`` seed 10: the formation's first scan).
 """
 from __future__ import annotations
 
@@ -67,8 +70,9 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
             continue
         if member is None:
             _, nis, ll = score_rows(batch, plots[inside], track)
-        else:                         # its own plots as if left out of its trajectory
-            _, nis, ll = score_rows_left_out(batch, plots[inside], track, member[inside] == j)
+        else:       # against its trajectory without its own plot of the scan, if any
+            left_out = own_plot_in_scan(plots, scan, member == j)[inside]
+            _, nis, ll = score_rows_left_out(batch, plots[inside], track, left_out)
         ok = nis <= gate[inside]
         llr[inside[ok], j] = ll[ok]
     gated = np.isfinite(llr).any(axis=1)
@@ -85,6 +89,22 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
         ok = np.isfinite(block[a, b])
         owner[rows[a[ok]]] = cols[b[ok]]
     return owner, gated
+
+
+def own_plot_in_scan(plots: np.ndarray, scan: np.ndarray, mine: np.ndarray) -> np.ndarray:
+    """(P,) for each plot row of ``plots`` (P,): itself if it is one of the object's
+    (``mine`` (P,) bool), else the object's plot in the same scan (``scan`` (P,); the first
+    if it has several), else -1."""
+    out = np.full(plots.size, -1, dtype=np.int64)
+    own = np.flatnonzero(mine)
+    if own.size == 0:
+        return out
+    scans, first = np.unique(scan[own], return_index=True)
+    k = np.clip(np.searchsorted(scans, scan), 0, scans.size - 1)
+    hit = scans[k] == scan
+    out[hit] = plots[own[first[k[hit]]]]
+    out[own] = plots[own]
+    return out
 
 
 def reassign_members(members: Mapping[str, list[tuple[int, np.ndarray]]], sensor: int,

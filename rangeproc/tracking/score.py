@@ -96,14 +96,15 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
 def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarray,
                  sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                  ot: np.ndarray, ox: np.ndarray, oP: np.ndarray, oq: np.ndarray,
-                 extent_sph: np.ndarray, extent_cart: np.ndarray
+                 extent_sph: np.ndarray, extent_cart: np.ndarray, epoch: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                             np.ndarray, np.ndarray]:
     """What the rows' scores need of the object, whatever offset is removed from ``z``.
 
     Rows ``sel`` (N,) of the batch's t, model, z (., 6), sigma (., 6), s, sv (., 3), Qr
-    (., 3, 3), each carried from the object epoch nearest in time (the earlier one at a
-    tie; the first or last outside the object's span); the
+    (., 3, 3), each carried from the object epoch ``epoch[i]`` (N,), or where that is -1
+    from the epoch nearest in time (the earlier one at a tie; the first or last outside
+    the object's span); the
     object: ot (E,), ox (E, 9), oP (E, 9, 9), oq (E,). Indexing happens here, without the
     GIL. Returns h (N, 6) the predicted measurement, L (N, 6, 6) the
     Cholesky factor of S = H P Hᵀ + R over the measured components (leading m x m block),
@@ -125,11 +126,13 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
     H = np.empty((N_COMPONENTS, 9))
     for i in range(n):
         r = sel[i]
-        e = 0                                     # the nearest epoch
-        if n_epochs > 1:
+        e = epoch[i]
+        if e < 0 and n_epochs > 1:                # the nearest epoch
+            e = 0
             e = min(max(np.searchsorted(ot, t[r]), 1), n_epochs - 1)
             if abs(ot[e - 1] - t[r]) <= abs(ot[e] - t[r]):
                 e -= 1
+        e = max(e, 0)
         _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
         m = 0
@@ -214,11 +217,93 @@ def mixture_llr(log_ratio: float, eps: float) -> float:
     return math.log((1.0 - eps) * math.exp(log_ratio) + eps)
 
 
-def _geometry(batch: MeasurementBatch, sel: np.ndarray, track: ObjectTrack) -> tuple:
-    """:func:`row_geometry` of ``batch`` rows ``sel`` against ``track``."""
+def _geometry(batch: MeasurementBatch, sel: np.ndarray, track: ObjectTrack,
+              epoch: np.ndarray | None = None) -> tuple:
+    """:func:`row_geometry` of ``batch`` rows ``sel`` against ``track`` (from its epochs
+    ``epoch`` (N,) where given, else the nearest)."""
+    if epoch is None:
+        epoch = np.full(sel.size, -1, dtype=np.int64)
     return row_geometry(sel, batch.t, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
                         batch.Qr, track.t, track.x, track.P, track.q, EXTENT_SPHERICAL,
-                        EXTENT_CARTESIAN)
+                        EXTENT_CARTESIAN, epoch)
+
+
+@njit(cache=True, nogil=True)
+def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarray,
+                   sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
+                   ot: np.ndarray, ox: np.ndarray, oP: np.ndarray, oq: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The object's state at the time of each of its rows ``sel`` (K,), had that row been
+    left out of its trajectory: (xd (K, 9), Pd (K, 9, 9), ok (K,)).
+
+    The smoothed marginal at a row's time combines everything but the row with the row
+    itself, so removing the row is one information subtraction (exact for a linear
+    smoother): with the carried smoothed ``x``, ``P``, the row's Jacobian ``H``, residual
+    ``r = z - h(x)`` and noise ``R``, and ``D = R - H P Hᵀ``,
+
+        x_del = x - P Hᵀ D⁻¹ r,    P_del = P + P Hᵀ D⁻¹ H P.
+
+    ``ok`` is False (and the smoothed state is returned) where ``D`` is not positive
+    definite: the trajectory did not weigh the row as stated.
+    """
+    k_rows = sel.shape[0]
+    n_epochs = ot.shape[0]
+    xd = np.empty((k_rows, 9))
+    Pd = np.empty((k_rows, 9, 9))
+    ok = np.zeros(k_rows, dtype=np.bool_)
+    h = np.empty(N_COMPONENTS)
+    H = np.empty((N_COMPONENTS, 9))
+    x = np.empty(9)
+    P = np.empty((9, 9))
+    for i in range(k_rows):
+        r = sel[i]
+        e = 0
+        if n_epochs > 1:
+            e = min(max(np.searchsorted(ot, t[r]), 1), n_epochs - 1)
+            if abs(ot[e - 1] - t[r]) <= abs(ot[e] - t[r]):
+                e -= 1
+        _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
+        xd[i] = x
+        Pd[i] = P
+        measure(model[r], x, s[r], sv[r], Qr[r], h, H)
+        comp = np.empty(N_COMPONENTS, dtype=np.int64)
+        m = 0
+        for c in range(N_COMPONENTS):
+            if not math.isnan(z[r, c]):
+                comp[m] = c
+                m += 1
+        if m == 0:
+            continue
+        Hm = np.empty((m, 9))
+        res = np.empty((m, 1))
+        for a in range(m):
+            c = comp[a]
+            Hm[a] = H[c]
+            d = z[r, c] - h[c]
+            if model[r] == SPHERICAL and c == AZIMUTH:
+                d = wrap_angle(d)
+            res[a, 0] = d
+        HP = Hm @ P                                       # (m, 9)
+        D = -(HP @ Hm.T)
+        for a in range(m):
+            D[a, a] += sigma[r, comp[a]] ** 2
+        if not cholesky_inplace(D, m):
+            continue
+        W = HP.copy()                                     # D⁻¹ H P
+        chol_solve_inplace(D, m, W, 9)
+        chol_solve_inplace(D, m, res, 1)                  # D⁻¹ r
+        for a in range(9):
+            acc = 0.0
+            for b in range(m):
+                acc += HP[b, a] * res[b, 0]
+            xd[i, a] = x[a] - acc
+            for c in range(9):
+                acc = 0.0
+                for b in range(m):
+                    acc += HP[b, a] * W[b, c]
+                Pd[i, a, c] = P[a, c] + acc
+        ok[i] = True
+    return xd, Pd, ok
 
 
 def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
@@ -231,26 +316,33 @@ def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
 
 
 def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
-                        member: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`score_rows`, with the rows the track was estimated from (``member`` (M,) bool)
-    scored as if they had been left out of it.
+                        left_out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`score_rows`, each row scored against the trajectory with row ``left_out[i]``
+    (M,) of ``batch`` left out of it: the row itself (one the track was estimated from),
+    another row (the object's own plot in the same scan), or -1 (none: the plain score).
 
     A sparse object's smoothed trajectory leans towards each of its own rows, so scored
     against it a row of its own looks better than it is, and a plot that the plot tracker
     gave it but another object should have had keeps winning (mixed seed 10: ``U3``'s
-    surveillance-only track, 112 m sigma, scored ``U2``'s plot at NIS 0.5). The deleted
-    residual of a linear smoother follows from the smoothed one, ``r``, its explained
+    surveillance-only track, 112 m sigma, scored ``U2``'s plot at NIS 0.5). For the same
+    reason a plot competing with the object's own plot of that scan is scored against the
+    trajectory without that plot: within a scan every candidate plot of an object then
+    meets the same trajectory, one that none of them shaped. The deleted residual of a
+    linear smoother follows from the smoothed one, ``r``, its explained
     covariance ``A = H P Hᵀ`` and the row's noise ``R``: the innovation had the row been
     left out has covariance ``C = R (R - A)⁻¹ R``, so ``eᵀ C⁻¹ e = rᵀ (R - A)⁻¹ r`` and
-    ``log det C = 2 log det R - log det (R - A)``. Where ``R - A`` is not positive definite
-    (the trajectory did not weigh the row as stated) the row keeps its plain score.
+    ``log det C = 2 log det R - log det (R - A)``; another row is scored from the state
+    with the left-out row removed (:func:`deleted_states`). Where ``R - A`` is not
+    positive definite (the trajectory did not weigh the row as stated) the row keeps its
+    plain score.
     """
     sel = np.asarray(rows, dtype=np.int64)
+    left_out = np.asarray(left_out, dtype=np.int64)
     geometry = _geometry(batch, sel, track)
     res, nis, llr = row_llr(sel, batch.model, batch.z, np.zeros((sel.size, N_COMPONENTS)),
                             *geometry, OUTLIER_PROBABILITY)
     _, L, m_rows, idx, ok, _, log_ext = geometry
-    for i in np.flatnonzero(np.asarray(member, dtype=bool) & ok):
+    for i in np.flatnonzero((left_out == sel) & ok):
         m = int(m_rows[i])
         comp = idx[i, :m]
         S = L[i, :m, :m] @ L[i, :m, :m].T
@@ -264,6 +356,19 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
         logdet_c = 2.0 * float(np.log(np.diag(R)).sum() - np.log(np.diag(Ld)).sum())
         llr[i] = mixture_llr(-0.5 * nis[i] - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
                              + log_ext[i], OUTLIER_PROBABILITY)
+    other = np.flatnonzero((left_out >= 0) & (left_out != sel))
+    if other.size:
+        gone, at = np.unique(left_out[other], return_inverse=True)
+        xd, Pd, fine = deleted_states(gone, batch.t, batch.model, batch.z, batch.sigma,
+                                      batch.s, batch.sv, batch.Qr, track.t, track.x, track.P,
+                                      track.q)
+        k = np.clip(np.searchsorted(track.t, batch.t[gone]), 0, track.t.size - 1)
+        deleted = ObjectTrack(batch.t[gone], xd, Pd, track.q[k])
+        use = fine[at]
+        part, at = sel[other[use]], at[use]
+        r2, n2, l2 = row_llr(part, batch.model, batch.z, np.zeros((part.size, N_COMPONENTS)),
+                             *_geometry(batch, part, deleted, at), OUTLIER_PROBABILITY)
+        res[other[use]], nis[other[use]], llr[other[use]] = r2, n2, l2
     return res, nis, llr
 
 

@@ -404,7 +404,7 @@ def _isolated_outliers(track: ObjectTrack, batch: MeasurementBatch, rows: np.nda
     missed the object. A run of such plots is the trajectory's failure, not the plots', and
     is kept (the scale scenario's `U5` lost its object when its runs were dropped)."""
     own = np.flatnonzero(mine)
-    _, nis, _ = score_rows_left_out(batch, rows[own], track, np.ones(own.size, bool))
+    _, nis, _ = score_rows_left_out(batch, rows[own], track, rows[own])
     dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
     out = nis > chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))     # NaN: not outside
     lone = out.copy()

@@ -11,6 +11,7 @@ from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_multi
 from rangeproc.tracking import objects as objects_module
+from rangeproc.tracking import plot_association
 from rangeproc.tracking import synthesis
 
 
@@ -216,7 +217,9 @@ def test_a_precise_object_does_not_keep_a_plot_it_cannot_gate(tmp_path, monkeypa
     tracked by R1. The plot tracker put U3's plot at 221.8 s in U2's plot track; no object
     gated it, and an ungated plot stayed where its plot track put it, so U2's object, whose
     position R1 knows to 2 m, kept a plot 230 m off. A plot no object gates now stays only
-    with an object less certain than the plot there."""
+    with an object less certain than the plot there; and a plot is scored against each
+    object without that object's own plot of the scan (``own_plot_in_scan``), which alone
+    repairs all but one of them."""
     def foreign_plots(folder) -> int:
         table = _association(folder)
         radar = table[(table.sensor == "R1") & (table.true == "U2")]
@@ -228,6 +231,8 @@ def test_a_precise_object_does_not_keep_a_plot_it_cannot_gate(tmp_path, monkeypa
     assert foreign_plots(tmp_path / "now") <= 1          # the first scan's, 14 s before R1
     monkeypatch.setattr(synthesis, "_uncertain_at", lambda track, batch, sel: np.ones(
         sel.size, dtype=bool))
+    monkeypatch.setattr(plot_association, "own_plot_in_scan",     # its own plot only
+                        lambda plots, scan, mine: np.where(mine, plots, -1))
     run(simulate_multi(tmp_path / "before", kind="mixed", seed=10))
     assert foreign_plots(tmp_path / "before") >= 2
 
