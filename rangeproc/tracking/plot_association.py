@@ -38,6 +38,12 @@ GATE_PROBABILITY = 0.9999
 SPAN_MARGIN_SECONDS = 2.0
 #: Cost of a pair outside the gate in the per-scan assignment (never chosen over a gated one).
 BIG = 1e12
+#: Orphan plots this far (s) outside an object's span are scored against it carried there
+#: (``extend_objects``; the relay's ``BRIDGE_SECONDS``).
+EXTEND_SECONDS = 60.0
+#: ... and join it while they continue its span with gaps of at most this many revisits
+#: (one scan missed, and half a scan of timing).
+EXTEND_GAP_SCANS = 2.5
 
 
 def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
@@ -76,6 +82,15 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
         ok = nis <= gate[inside]
         llr[inside[ok], j] = ll[ok]
     gated = np.isfinite(llr).any(axis=1)
+    return _assign_per_scan(llr, scan), gated
+
+
+def _assign_per_scan(llr: np.ndarray, scan: np.ndarray) -> np.ndarray:
+    """(P,) owner (column of ``llr`` (P, J), -1 none) of each plot: within each scan
+    (``scan`` (P,)) the assignment of plots to objects maximising the summed llr over the
+    finite (gated) pairs, each object taking at most one plot."""
+    owner = np.full(llr.shape[0], -1, dtype=np.int64)
+    gated = np.isfinite(llr).any(axis=1)
     order = np.argsort(scan, kind="stable")
     bounds = np.flatnonzero(np.diff(scan[order])) + 1
     for rows in np.split(order, bounds):
@@ -88,7 +103,62 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
         a, b = linear_sum_assignment(np.where(np.isfinite(block), -block, BIG))
         ok = np.isfinite(block[a, b])
         owner[rows[a[ok]]] = cols[b[ok]]
-    return owner, gated
+    return owner
+
+
+def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
+                   tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
+                   owner: np.ndarray, orphan: np.ndarray) -> np.ndarray:
+    """``owner`` (P,) with orphan plots (``orphan`` (P,) bool: plots of a plot track that
+    no object took) before or after an object's span joined to it.
+
+    An object's trajectory starts with its first rows; where another object held its plot
+    track before that (a formation's plot tracks swapping), its earlier plots were taken
+    back from the other object in step 5 and then fitted nothing (``mixed`` seed 2: `U2`'s
+    first five plots, 0.5-16.4 s, before its ship radar's track from 19.4 s). Orphans up
+    to ``EXTEND_SECONDS`` outside a span are scored against the object carried there (its
+    covariance growing with its white-jerk noise), assigned per scan as in
+    :func:`plot_owners`, and kept while they continue the span without a gap of more than
+    ``EXTEND_GAP_SCANS`` revisits: a run that reaches the object, not a stray plot
+    that happens to fall in a wide gate.
+    """
+    out = owner.copy()
+    idx = np.flatnonzero(orphan & (owner < 0))
+    if idx.size == 0 or not tracks:
+        return out
+    t = batch.t[plots]
+    scan_t = np.array([np.median(t[scan == k]) for k in np.unique(scan)])
+    revisit = float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
+    if not revisit > 0.0:
+        return out
+    llr = np.full((plots.size, len(tracks)), -np.inf)
+    dof = np.isfinite(batch.z[plots, :4]).sum(axis=1)
+    gate = np.asarray(chi2_ppf(GATE_PROBABILITY, np.maximum(dof, 1)), dtype=float)
+    for j, track in enumerate(tracks):
+        if track is None or track.t.size == 0:
+            continue
+        ti = t[idx]
+        lo, hi = float(track.t[0]), float(track.t[-1])
+        near = idx[((ti < lo - SPAN_MARGIN_SECONDS) & (ti >= lo - EXTEND_SECONDS))
+                   | ((ti > hi + SPAN_MARGIN_SECONDS) & (ti <= hi + EXTEND_SECONDS))]
+        if near.size == 0:
+            continue
+        _, nis, ll = score_rows(batch, plots[near], track)
+        ok = nis <= gate[near]
+        llr[near[ok], j] = ll[ok]
+    won = _assign_per_scan(llr, scan)
+    for j, track in enumerate(tracks):
+        mine = np.flatnonzero(won == j)
+        if mine.size == 0:
+            continue
+        for side, edge in ((t[mine] < track.t[0], float(track.t[0])),
+                           (t[mine] > track.t[-1], float(track.t[-1]))):
+            part = mine[side]
+            part = part[np.argsort(np.abs(t[part] - edge))]       # outward from the span
+            reach = np.abs(np.diff(np.concatenate([[edge], t[part]])))
+            run = np.cumprod(reach <= EXTEND_GAP_SCANS * revisit).astype(bool)
+            out[part[run]] = j
+    return out
 
 
 def own_plot_in_scan(plots: np.ndarray, scan: np.ndarray, mine: np.ndarray) -> np.ndarray:

@@ -74,7 +74,7 @@ from rangeproc.tracking.objects import (
     as_batch,
     member_conflict,
 )
-from rangeproc.tracking.plot_association import plot_owners, reassign_members
+from rangeproc.tracking.plot_association import extend_objects, plot_owners, reassign_members
 from rangeproc.tracking.plots import (
     is_framed,
     is_rotating,
@@ -377,6 +377,8 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
                          & ~_isolated_outliers(objects.tracks[keys[j]], batch, rows,  # lone
                                                before == j, own))                    # outlier
         owner = np.where(gated, owner, np.where(keep, before, -1))
+        owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], scan, owner,
+                               np.isin(rows, np.concatenate(parts)))
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out

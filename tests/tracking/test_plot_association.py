@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.tracking.plot_association import plot_owners, reassign_members
+from rangeproc.tracking.plot_association import extend_objects, plot_owners, reassign_members
 from rangeproc.tracking.score import ObjectTrack
 
 SIG = np.array([30.0, 2e-3, 2e-3])          # range m, azimuth and elevation rad
@@ -70,3 +70,40 @@ def test_reassign_members_moves_only_that_sensors_plots() -> None:
     out = reassign_members(members, 0, np.array([2, 3, 4]), np.array([1, -1, 0]), ["A", "B"])
     got = {k: [(i, sel.tolist()) for i, sel in v] for k, v in out.items()}
     assert got == {"A": [(0, [1]), (1, [7, 8]), (0, [4])], "B": [(0, [2])]}
+
+
+def test_orphan_plots_before_an_objects_span_join_it_while_they_reach_it(plot_batch) -> None:
+    """``extend_objects``: A's track starts at 40 s (another sensor's), its plots from 0 s
+    were orphaned; they join A as one run reaching its span. B's orphans stop 30 s before
+    B's span (a gap of 7 revisits): they stay orphans. Clutter stays out; plots other
+    objects own are not touched."""
+    rng = np.random.default_rng(7)
+    period = 4.0
+    scans = np.arange(20)
+    ta = scans * period + 0.10
+    a = _line((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), ta)
+    b_scans = scans[:3]
+    tb = b_scans * period + 1.0
+    b = _line((-20_000.0, 10_000.0, 3_000.0), (100.0, 50.0, 0.0), tb)
+    tc = scans * period + 2.0
+    clutter = rng.uniform(-40_000, 40_000, (scans.size, 3))
+    clutter[:, 2] = rng.uniform(500, 5_000, scans.size)
+    t = np.concatenate([ta, tb, tc])
+    truth = np.concatenate([np.zeros(ta.size), np.ones(tb.size), np.full(tc.size, -1)])
+    p = np.vstack([a, b, clutter])
+    order = np.argsort(t, kind="stable")
+    t, p, truth = t[order], p[order], truth[order].astype(int)
+    rae = _rae(p) + rng.normal(size=(t.size, 3)) * SIG
+    late = np.arange(40.0, 80.0, 0.1)
+    tracks = [_track((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), late, 3.0),
+              _track((-20_000.0, 10_000.0, 3_000.0), (100.0, 50.0, 0.0), late, 3.0)]
+    scan = np.floor(t / period).astype(np.int64)
+    owner = np.where((truth == 0) & (t > 40.0), 0, -1)          # A's own plots in its span
+    owner[np.flatnonzero(truth == -1)[-1]] = 1                  # a plot B already holds
+    orphan = truth >= 0
+    out = extend_objects(plot_batch(t, rae, SIG), np.arange(t.size), tracks, scan, owner,
+                         orphan | (truth == -1))
+    assert (out[(truth == 0)] == 0).all()                  # A's orphans joined A
+    assert (out[truth == 1] == -1).all()                   # B's never reach B's span
+    assert (out[truth == -1][:-1] == -1).all()             # clutter stays out
+    assert out[np.flatnonzero(truth == -1)[-1]] == 1       # B's plot stays B's
