@@ -35,6 +35,9 @@ from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL, measure, wrap_angle
 
+#: Leading state columns a measurement Jacobian can be non-zero in (position, velocity;
+#: ``models.measurement.measure``).
+N_KINEMATIC_COLUMNS = 6
 #: Probability that a row of the object is an outlier (its cost is at most log of this).
 OUTLIER_PROBABILITY = 0.01
 #: Extent per component of an unrelated measurement: spherical (range m, azimuth rad,
@@ -65,31 +68,40 @@ class ObjectTrack:
 @njit(cache=True, nogil=True)
 def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
            Po: np.ndarray) -> None:
-    """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` into xo, Po."""
+    """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` into xo, Po.
+
+    ``Po = F P Fᵀ + Q`` with F applied through its structure (per axis p += v dt + a dt²/2,
+    v += a dt), with no allocation: this runs once per scored row."""
     a = abs(dt)
+    sg = 1.0 if dt > 0 else (-1.0 if dt < 0 else 0.0)
+    h = 0.5 * dt * dt
     for ax in range(3):
         p, v, acc = x[ax], x[3 + ax], x[6 + ax]
-        xo[ax] = p + v * dt + 0.5 * acc * dt * dt
+        xo[ax] = p + v * dt + h * acc
         xo[3 + ax] = v + acc * dt
         xo[6 + ax] = acc
-    F = np.eye(9)
-    for ax in range(3):
-        F[ax, 3 + ax] = dt
-        F[ax, 6 + ax] = 0.5 * dt * dt
-        F[3 + ax, 6 + ax] = dt
-    FP = F @ P @ F.T
+    for j in range(9):                                  # F P
+        for ax in range(3):
+            pp, pv, pa = P[ax, j], P[3 + ax, j], P[6 + ax, j]
+            Po[ax, j] = pp + dt * pv + h * pa
+            Po[3 + ax, j] = pv + dt * pa
+            Po[6 + ax, j] = pa
+    for i in range(9):                                  # (F P) Fᵀ
+        for ax in range(3):
+            mp, mv, ma = Po[i, ax], Po[i, 3 + ax], Po[i, 6 + ax]
+            Po[i, ax] = mp + dt * mv + h * ma
+            Po[i, 3 + ax] = mv + dt * ma
     for ax in range(3):
         i, j, k = ax, 3 + ax, 6 + ax
-        FP[i, i] += q * a ** 5 / 20.0
-        FP[i, j] += q * a ** 4 / 8.0 * np.sign(dt)
-        FP[j, i] += q * a ** 4 / 8.0 * np.sign(dt)
-        FP[i, k] += q * a ** 3 / 6.0
-        FP[k, i] += q * a ** 3 / 6.0
-        FP[j, j] += q * a ** 3 / 3.0
-        FP[j, k] += q * a ** 2 / 2.0 * np.sign(dt)
-        FP[k, j] += q * a ** 2 / 2.0 * np.sign(dt)
-        FP[k, k] += q * a
-    Po[:, :] = FP
+        Po[i, i] += q * a ** 5 / 20.0
+        Po[i, j] += q * a ** 4 / 8.0 * sg
+        Po[j, i] += q * a ** 4 / 8.0 * sg
+        Po[i, k] += q * a ** 3 / 6.0
+        Po[k, i] += q * a ** 3 / 6.0
+        Po[j, j] += q * a ** 3 / 3.0
+        Po[j, k] += q * a ** 2 / 2.0 * sg
+        Po[k, j] += q * a ** 2 / 2.0 * sg
+        Po[k, k] += q * a
 
 
 @njit(cache=True, nogil=True)
@@ -124,6 +136,7 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
     P = np.empty((9, 9))
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, 9))
+    HP = np.empty((N_COMPONENTS, 9))
     for i in range(n):
         r = sel[i]
         e = epoch[i]
@@ -146,15 +159,21 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
         h_all[i] = h
         S = L[i]
         log_ext = 0.0
+        for a in range(m):                 # H P over the measured rows (H has no
+            c = idx_all[i, a]              # acceleration columns)
+            for l in range(9):
+                acc = 0.0
+                for k in range(N_KINEMATIC_COLUMNS):
+                    acc += H[c, k] * P[k, l]
+                HP[a, l] = acc
         for a in range(m):
             c = idx_all[i, a]
             log_ext += math.log(extent_sph[c] if model[r] == SPHERICAL else extent_cart[c])
             for b in range(m):
                 cb = idx_all[i, b]
                 acc = 0.0
-                for k in range(9):
-                    for l in range(9):
-                        acc += H[c, k] * P[k, l] * H[cb, l]
+                for l in range(N_KINEMATIC_COLUMNS):
+                    acc += HP[a, l] * H[cb, l]
                 S[a, b] = acc
             S[a, a] += sigma[r, c] * sigma[r, c]
         log_ext_all[i] = log_ext
@@ -342,20 +361,8 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
     res, nis, llr = row_llr(sel, batch.model, batch.z, np.zeros((sel.size, N_COMPONENTS)),
                             *geometry, OUTLIER_PROBABILITY)
     _, L, m_rows, idx, ok, _, log_ext = geometry
-    for i in np.flatnonzero((left_out == sel) & ok):
-        m = int(m_rows[i])
-        comp = idx[i, :m]
-        S = L[i, :m, :m] @ L[i, :m, :m].T
-        R = np.diag(batch.sigma[sel[i], comp] ** 2)
-        try:
-            Ld = np.linalg.cholesky(2.0 * R - S)        # R - A, with A = S - R
-        except np.linalg.LinAlgError:
-            continue
-        w = np.linalg.solve(Ld, res[i, comp])
-        nis[i] = float(w @ w)
-        logdet_c = 2.0 * float(np.log(np.diag(R)).sum() - np.log(np.diag(Ld)).sum())
-        llr[i] = mixture_llr(-0.5 * nis[i] - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
-                             + log_ext[i], OUTLIER_PROBABILITY)
+    _deleted_residual_scores(np.flatnonzero((left_out == sel) & ok), sel, batch.sigma, res,
+                             L, m_rows, idx, log_ext, nis, llr, OUTLIER_PROBABILITY)
     other = np.flatnonzero((left_out >= 0) & (left_out != sel))
     if other.size:
         gone, at = np.unique(left_out[other], return_inverse=True)
@@ -370,6 +377,48 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
                              *_geometry(batch, part, deleted, at), OUTLIER_PROBABILITY)
         res[other[use]], nis[other[use]], llr[other[use]] = r2, n2, l2
     return res, nis, llr
+
+
+@njit(cache=True, nogil=True)
+def _deleted_residual_scores(rows: np.ndarray, sel: np.ndarray, sigma: np.ndarray,
+                             res: np.ndarray, L: np.ndarray, m_rows: np.ndarray,
+                             idx: np.ndarray, log_ext: np.ndarray, nis: np.ndarray,
+                             llr: np.ndarray, eps: float) -> None:
+    """NIS and llr (in place) of the scored rows ``rows`` (indices into ``sel``) by their
+    deleted residual: ``rᵀ (R - A)⁻¹ r`` with ``R - A = 2R - S`` (S from its Cholesky factor
+    ``L``), ``log det C = 2 log det R - log det (R - A)``
+    (:func:`score_rows_left_out`); a row whose ``R - A`` is not positive definite keeps
+    its score."""
+    D = np.empty((N_COMPONENTS, N_COMPONENTS))
+    w = np.empty(N_COMPONENTS)
+    for i in rows:
+        m = m_rows[i]
+        log_r = 0.0
+        for a in range(m):
+            for b in range(a + 1):
+                acc = 0.0
+                for k in range(b + 1):
+                    acc += L[i, a, k] * L[i, b, k]
+                D[a, b] = -acc
+                D[b, a] = -acc
+            var = sigma[sel[i], idx[i, a]] ** 2
+            D[a, a] += 2.0 * var
+            log_r += math.log(var)
+        if not cholesky_inplace(D, m):
+            continue
+        d2 = 0.0
+        log_d = 0.0
+        for a in range(m):                              # forward substitution D w = r
+            v = res[i, idx[i, a]]
+            for k in range(a):
+                v -= D[a, k] * w[k]
+            w[a] = v / D[a, a]
+            d2 += w[a] * w[a]
+            log_d += 2.0 * math.log(D[a, a])
+        nis[i] = d2
+        logdet_c = 2.0 * log_r - log_d
+        llr[i] = mixture_llr(-0.5 * d2 - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
+                             + log_ext[i], eps)
 
 
 def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
