@@ -30,7 +30,15 @@ from scipy.optimize import linear_sum_assignment
 from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.tracking.score import ObjectTrack, score_rows, score_rows_left_out
+from rangeproc.models.measurement import AZIMUTH
+from rangeproc.tracking.score import (
+    EXTENT_SPHERICAL,
+    OUTLIER_PROBABILITY,
+    ObjectTrack,
+    mixture_llr,
+    score_rows,
+    score_rows_left_out,
+)
 
 #: Chi-square gate probability of a plot against an object.
 GATE_PROBABILITY = 0.9999
@@ -46,9 +54,41 @@ EXTEND_SECONDS = 60.0
 EXTEND_GAP_SCANS = 2.5
 
 
+def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
+                  n_clutter: int) -> np.ndarray:
+    """(P,) the log-likelihood ratio (``tracking.score``) each plot of ``plots`` (P,) must
+    reach against an object to be more likely the object's than clutter.
+
+    The clutter density is the sensor's own: ``n_clutter`` plots the plot tracker found to
+    be clutter, per scan (``scan`` (P,)), over the box the plots span in range, azimuth (the
+    turn less its widest empty sector) and elevation. A plot's density under an object,
+    ``N(z; h, S)``, must exceed it; the score's unrelated density is uniform over a fixed
+    extent (``EXTENT_SPHERICAL``), so the floor is the mixture llr of ``log density +
+    log extent``. An object that hardly knows where it is (a bridge of minutes: sigma of tens
+    of km) otherwise gates every plot and takes the best clutter plot of each scan (the
+    scale scenario: `U5`'s object took 171 clutter plots over three minutes before its
+    radar track)."""
+    z = batch.z[plots]
+    n_scans = max(np.unique(scan).size, 1)
+    az = np.sort(np.mod(z[:, AZIMUTH], 2 * np.pi))
+    gaps = np.diff(np.concatenate([az, az[:1] + 2 * np.pi])) if az.size else np.zeros(1)
+    spans = [float(np.ptp(z[:, 0])) if plots.size else 0.0,
+             2 * np.pi - float(gaps.max())]
+    elevated = np.isfinite(z[:, 2])
+    if elevated.any():
+        spans.append(float(np.ptp(z[elevated, 2])))
+    if min(spans) <= 0.0 or n_clutter == 0:
+        return np.full(plots.size, -np.inf)
+    log_ext = np.log(EXTENT_SPHERICAL)
+    log_ratio = (np.log(n_clutter / n_scans) - np.log(spans[:2]).sum() + log_ext[:2].sum()
+                 + np.where(elevated, log_ext[2] - np.log(spans[-1]), 0.0))
+    return np.array([mixture_llr(v, OUTLIER_PROBABILITY) for v in log_ratio])
+
+
 def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
                 tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
-                member: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                member: np.ndarray | None = None, floor: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """(owner (P,): index into ``tracks`` of the object each plot row goes to, -1 for none;
     gated (P,) bool: some object's gate holds the plot).
 
@@ -63,6 +103,8 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
     owner = np.full(plots.size, -1, dtype=np.int64)
     if plots.size == 0 or not tracks:
         return owner, np.zeros(plots.size, dtype=bool)
+    if floor is None:
+        floor = np.full(plots.size, -np.inf)
     llr = np.full((plots.size, len(tracks)), -np.inf)
     t = batch.t[plots]
     dof = np.isfinite(batch.z[plots, :4]).sum(axis=1)
@@ -79,7 +121,7 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
         else:       # against its trajectory without its own plot of the scan, if any
             left_out = own_plot_in_scan(plots, scan, member == j)[inside]
             _, nis, ll = score_rows_left_out(batch, plots[inside], track, left_out)
-        ok = nis <= gate[inside]
+        ok = (nis <= gate[inside]) & (ll >= floor[inside])
         llr[inside[ok], j] = ll[ok]
     gated = np.isfinite(llr).any(axis=1)
     return _assign_per_scan(llr, scan), gated
@@ -108,7 +150,8 @@ def _assign_per_scan(llr: np.ndarray, scan: np.ndarray) -> np.ndarray:
 
 def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
                    tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
-                   owner: np.ndarray, orphan: np.ndarray) -> np.ndarray:
+                   owner: np.ndarray, orphan: np.ndarray, floor: np.ndarray | None = None
+                   ) -> np.ndarray:
     """``owner`` (P,) with orphan plots (``orphan`` (P,) bool: plots of a plot track that
     no object took) before or after an object's span joined to it.
 
@@ -144,7 +187,7 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
         if near.size == 0:
             continue
         _, nis, ll = score_rows(batch, plots[near], track)
-        ok = nis <= gate[near]
+        ok = (nis <= gate[near]) & (floor is None or ll >= floor[near])
         llr[near[ok], j] = ll[ok]
     won = _assign_per_scan(llr, scan)
     for j, track in enumerate(tracks):

@@ -74,7 +74,12 @@ from rangeproc.tracking.objects import (
     as_batch,
     member_conflict,
 )
-from rangeproc.tracking.plot_association import extend_objects, plot_owners, reassign_members
+from rangeproc.tracking.plot_association import (
+    clutter_floor,
+    extend_objects,
+    plot_owners,
+    reassign_members,
+)
 from rangeproc.tracking.plots import (
     is_framed,
     is_rotating,
@@ -358,8 +363,9 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             for sensor, sel in objects.members.get(k, []):
                 if sensor == i:
                     before[np.isin(rows, sel)] = j
+        floor = clutter_floor(batch, rows, scan, clutter.get(i, np.zeros(0)).size)
         owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan,
-                                   before)
+                                   before, floor)
         doubtful = _doubtful(objects, keys, batch, rows, before, gated)
         if doubtful:          # quick trajectories that miss their own plots: refined, and
             #                   the plots no object gated are associated again
@@ -367,7 +373,7 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             for k, track in zip(doubtful, refined):
                 objects.adopt(k, track)
             again, gated_again = plot_owners(batch, rows, [objects.tracks[k] for k in keys],
-                                             scan, before)
+                                             scan, before, floor)
             rescue = ~gated & gated_again
             owner, gated = np.where(rescue, again, owner), gated | gated_again
         keep = before >= 0                 # an ungated plot stays with its plot track's
@@ -378,7 +384,7 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
                                                before == j, own))                    # outlier
         owner = np.where(gated, owner, np.where(keep, before, -1))
         owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], scan, owner,
-                               np.isin(rows, np.concatenate(parts)))
+                               np.isin(rows, np.concatenate(parts)), floor)
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out

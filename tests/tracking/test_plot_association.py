@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.tracking.plot_association import extend_objects, plot_owners, reassign_members
+from rangeproc.tracking.plot_association import (
+    clutter_floor,
+    extend_objects,
+    plot_owners,
+    reassign_members,
+)
 from rangeproc.tracking.score import ObjectTrack
 
 SIG = np.array([30.0, 2e-3, 2e-3])          # range m, azimuth and elevation rad
@@ -107,3 +112,36 @@ def test_orphan_plots_before_an_objects_span_join_it_while_they_reach_it(plot_ba
     assert (out[truth == 1] == -1).all()                   # B's never reach B's span
     assert (out[truth == -1][:-1] == -1).all()             # clutter stays out
     assert out[np.flatnonzero(truth == -1)[-1]] == 1       # B's plot stays B's
+
+
+def test_an_object_that_hardly_knows_where_it_is_takes_no_clutter(plot_batch) -> None:
+    """``clutter_floor``: an object with a 30 km sigma gates every plot, and without the
+    floor takes the best clutter plot of every scan; with it, a plot must be more likely
+    the object's than clutter (the sensor's clutter density), and A keeps its own plots."""
+    rng = np.random.default_rng(11)
+    period = 4.0
+    scans = np.arange(30)
+    ta = scans * period + 0.10
+    a = _line((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), ta)
+    n_clutter = 5
+    tc = np.repeat(scans * period, n_clutter) + rng.uniform(0.2, 3.8, scans.size * n_clutter)
+    clutter = np.column_stack([rng.uniform(-40_000, 40_000, (tc.size, 2)),
+                               rng.uniform(500, 5_000, tc.size)])
+    t = np.concatenate([ta, tc])
+    truth = np.concatenate([np.zeros(ta.size), np.full(tc.size, -1)]).astype(int)
+    p = np.vstack([a, clutter])
+    order = np.argsort(t, kind="stable")
+    t, p, truth = t[order], p[order], truth[order]
+    rae = _rae(p) + rng.normal(size=(t.size, 3)) * SIG
+    grid = np.arange(-1.0, 125.0, 0.1)
+    tracks = [_track((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), grid, 3.0),
+              _track((-10_000.0, 5_000.0, 3_000.0), (0.0, 0.0, 0.0), grid, 30_000.0)]
+    scan = np.floor(t / period).astype(np.int64)
+    batch = plot_batch(t, rae, SIG)
+    plots = np.arange(t.size)
+    without, _ = plot_owners(batch, plots, tracks, scan)
+    assert (without == 1).sum() >= scans.size // 2          # the vague object takes clutter
+    floor = clutter_floor(batch, plots, scan, int((truth == -1).sum()))
+    owner, _ = plot_owners(batch, plots, tracks, scan, floor=floor)
+    assert (owner == 1).sum() == 0
+    assert (owner[truth == 0] == 0).all()
