@@ -18,8 +18,13 @@ every other plot of the scan against that same trajectory without it
 plots, which would otherwise keep winning plots the plot tracker gave it wrongly, and keep
 its true plot of the scan, scored against a track drawn to the wrong one, out. An object
 tracked precisely by another sensor thereby takes its own plots back from an object that
-only the surveillance radar sees, and two objects whose plots the plot tracker swapped in
-a scan exchange them (``mixed`` seed 10: the formation's first scan).
+only the surveillance radar sees, and two objects whose plots the plot tracker swapped
+exchange them where the rest of their trajectories tell (``mixed`` seed 7: `U3`, seen by
+the surveillance radar alone, at its true assignment's RMSE).
+
+A gated plot must also be likelier the object's than clutter (:func:`clutter_floor`: the
+sensor's own clutter density), and plots of plot tracks that no object took join an object
+whose span they lead up to (:func:`extend_objects`).
 """
 from __future__ import annotations
 
