@@ -80,6 +80,7 @@ from rangeproc.tracking.plot_association import (
     plot_owners,
     reassign_members,
 )
+from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plots import (
     is_framed,
     is_rotating,
@@ -182,7 +183,9 @@ def sensor_segments(sensor: int, rows: SensorRows
             z = rows.z[ranged]
             p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3],
                                   rows.s[ranged], rows.Qr[ranged])
-            label = track_plots(rows.t[ranged], p, R, scan_numbers(rows.t[ranged], z[:, 1]))
+            scan = scan_numbers(rows.t[ranged], z[:, 1])
+            label = repair_heads(rows.t[ranged], p, R, scan,
+                                 track_plots(rows.t[ranged], p, R, scan))
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, plot=True)

@@ -1,0 +1,135 @@
+"""Two new plot tracks that took each other's objects: a two-track test over their first scans.
+
+The plot tracker (``tracking.plots``) decides each scan on that scan alone. A track's first
+scans are its weakest: until it has a velocity, its prediction is a wide disc, and where
+two objects fly closer than that (a formation, 230 m apart) it may continue one object's
+first plot with the other object's next (``mixed`` seed 10: the formation's first plots;
+seed 9: its first two scans). Each track then holds a head of one object and the rest of
+the other, and everything built on the tracks inherits the exchange: the heads come before
+any other sensor holds either object, so nothing later corrects them.
+
+For two confirmed tracks whose plots in a scan are confusable (their difference inside the
+chi-square gate ``GATE_PROBABILITY`` of both plots' noise and the tracker's manoeuvre noise
+over one revisit: one object could have been at the other's plot), each boundary between
+scans within ``CONFIRM_SCANS`` of both tracks' first scans is tested: "from this scan on, the
+tracks' continuations are exchanged" against "as tracked", by the sequential likelihood of
+each track's plots within ``WINDOW_SCANS`` scans either side under the plot tracker's own
+constant-velocity filter (the sum of innovation NIS and log det S: minus twice the
+log-likelihood, up to a constant); the likelier wins (a track-oriented MHT of two tracks
+over their first scans, deferred by the window: the GNN committed after one scan). Later
+exchanges are not tested: once the tracks have velocities the tracker's choice is as good
+as this test (mixed seed 10, tried: true and false later exchanges scored alike), and
+step 5 repairs them where another sensor holds one of the objects.
+"""
+from __future__ import annotations
+
+import numpy as np
+from rangeproc.quantiles import chi2_ppf
+
+from rangeproc.tracking.plots import ACCELERATION_PSD, CONFIRM_SCANS, INITIATION_SPEED
+
+#: Scans either side of a boundary whose plots score the exchange.
+WINDOW_SCANS = 4
+#: Two plots of one scan are confusable within this chi-square probability (3 dof).
+GATE_PROBABILITY = 0.9999
+
+
+def sequence_cost(t: np.ndarray, p: np.ndarray, R: np.ndarray) -> float:
+    """Minus twice the log-likelihood (up to a constant) of plots at times ``t`` (N,) s,
+    ENU positions ``p`` (N, 3) m and covariances ``R`` (N, 3, 3) m^2 as one object under
+    the plot tracker's constant-velocity filter: the sum over plots 2..N of
+    ``NIS + log det S``. The filter starts at the first plot with the tracker's velocity
+    prior (3 sigma = its ``INITIATION_SPEED``), so the first plot costs nothing and the
+    second little."""
+    x = np.concatenate([p[0], np.zeros(3)])
+    P = np.zeros((6, 6))
+    P[:3, :3] = R[0]
+    P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)
+    cost = 0.0
+    for i in range(1, t.size):
+        dt = float(t[i] - t[i - 1])
+        a = abs(dt)
+        F = np.eye(6)
+        F[:3, 3:] = dt * np.eye(3)
+        Q = np.zeros((6, 6))
+        Q[:3, :3] = ACCELERATION_PSD * a ** 3 / 3 * np.eye(3)
+        Q[:3, 3:] = Q[3:, :3] = ACCELERATION_PSD * dt * a / 2 * np.eye(3)
+        Q[3:, 3:] = ACCELERATION_PSD * a * np.eye(3)
+        x = F @ x
+        P = F @ P @ F.T + Q
+        S = P[:3, :3] + R[i]
+        d = p[i] - x[:3]
+        L = np.linalg.cholesky(S)
+        w = np.linalg.solve(L, d)
+        cost += float(w @ w) + 2.0 * float(np.log(np.diag(L)).sum())
+        K = np.linalg.solve(S, P[:3, :]).T
+        x = x + K @ d
+        P = P - K @ P[:3, :]
+        P = 0.5 * (P + P.T)
+    return cost
+
+
+def repair_heads(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                 label: np.ndarray) -> np.ndarray:
+    """``label`` (N,) (the plot tracker's: track number, -1 clutter) with the exchanges of
+    two young tracks' heads undone (module docstring). t (N,) s, p (N, 3) ENU m,
+    R (N, 3, 3) m^2, scan (N,) as for ``tracking.plots.track_plots``."""
+    label = label.copy()
+    tracked = np.flatnonzero(label >= 0)
+    if tracked.size == 0:
+        return label
+    first = {int(k): int(scan[label == k].min()) for k in np.unique(label[tracked])}
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
+    for a, b, k in _close_boundaries(t, p, R, scan, label, tracked, gate):
+        if k - max(first[a], first[b]) > CONFIRM_SCANS or k <= min(first[a], first[b]):
+            continue
+        rows_a = np.flatnonzero(label == a)
+        rows_b = np.flatnonzero(label == b)
+        near_a = rows_a[np.abs(scan[rows_a] - k + 0.5) < WINDOW_SCANS]
+        near_b = rows_b[np.abs(scan[rows_b] - k + 0.5) < WINDOW_SCANS]
+        head_a, tail_a = near_a[scan[near_a] < k], near_a[scan[near_a] >= k]
+        head_b, tail_b = near_b[scan[near_b] < k], near_b[scan[near_b] >= k]
+        if min(head_a.size, head_b.size, tail_a.size, tail_b.size) == 0:
+            continue
+        as_tracked = _cost(t, p, R, near_a) + _cost(t, p, R, near_b)
+        exchanged = (_cost(t, p, R, np.concatenate([head_a, tail_b]))
+                     + _cost(t, p, R, np.concatenate([head_b, tail_a])))
+        if exchanged < as_tracked:
+            later_a = rows_a[scan[rows_a] >= k]
+            later_b = rows_b[scan[rows_b] >= k]
+            label[later_a], label[later_b] = b, a
+    return label
+
+
+def _cost(t: np.ndarray, p: np.ndarray, R: np.ndarray, rows: np.ndarray) -> float:
+    rows = np.sort(rows)
+    return sequence_cost(t[rows], p[rows], R[rows])
+
+
+def _close_boundaries(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                      label: np.ndarray, tracked: np.ndarray, gate: float
+                      ) -> list[tuple[int, int, int]]:
+    """(track a, track b, boundary scan k) in scan order: for each scan in which tracks a
+    and b both have a plot and the two plots are confusable, the boundaries before that
+    scan and after it (an exchange happens between scans)."""
+    out: set[tuple[int, int, int]] = set()
+    order = tracked[np.argsort(scan[tracked], kind="stable")]
+    bounds = np.flatnonzero(np.diff(scan[order])) + 1
+    starts = np.concatenate([[0], bounds])
+    scan_t = np.array([np.median(t[rows]) for rows in np.split(order, bounds)])
+    revisit = float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
+    manoeuvre = ACCELERATION_PSD * revisit ** 3 / 3.0 * np.eye(3)
+    for lo, rows in zip(starts, np.split(order, bounds)):
+        if rows.size < 2:
+            continue
+        k = int(scan[order[lo]])
+        for i in range(rows.size):
+            for j in range(i + 1, rows.size):
+                u, v = int(rows[i]), int(rows[j])
+                if label[u] == label[v]:
+                    continue
+                d = p[u] - p[v]
+                if float(d @ np.linalg.solve(R[u] + R[v] + manoeuvre, d)) <= gate:
+                    a, b = sorted((int(label[u]), int(label[v])))
+                    out.update({(a, b, k), (a, b, k + 1)})
+    return sorted(out, key=lambda abk: (abk[2], abk[0], abk[1]))
