@@ -123,13 +123,15 @@ def _close_boundaries(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndar
         if rows.size < 2:
             continue
         k = int(scan[order[lo]])
-        for i in range(rows.size):
-            for j in range(i + 1, rows.size):
-                u, v = int(rows[i]), int(rows[j])
-                if label[u] == label[v]:
-                    continue
-                d = p[u] - p[v]
-                if float(d @ np.linalg.solve(R[u] + R[v] + manoeuvre, d)) <= gate:
-                    a, b = sorted((int(label[u]), int(label[v])))
-                    out.update({(a, b, k), (a, b, k + 1)})
+        i, j = np.triu_indices(rows.size, 1)
+        u, v = rows[i], rows[j]
+        u, v = u[label[u] != label[v]], v[label[u] != label[v]]
+        if u.size == 0:
+            continue
+        d = p[u] - p[v]
+        w = np.linalg.solve(R[u] + R[v] + manoeuvre, d[..., None])[..., 0]
+        m2 = np.einsum("ni,ni->n", d, w)
+        for uu, vv in zip(u[m2 <= gate], v[m2 <= gate]):
+            a, b = sorted((int(label[uu]), int(label[vv])))
+            out.update({(a, b, k), (a, b, k + 1)})
     return sorted(out, key=lambda abk: (abk[2], abk[0], abk[1]))
