@@ -36,6 +36,7 @@ from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH
+from rangeproc.tracking.plots import revisit_period
 from rangeproc.tracking.score import (
     EXTENT_SPHERICAL,
     OUTLIER_PROBABILITY,
@@ -85,9 +86,10 @@ def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
     if min(spans) <= 0.0 or n_clutter == 0:
         return np.full(plots.size, -np.inf)
     log_ext = np.log(EXTENT_SPHERICAL)
-    log_ratio = (np.log(n_clutter / n_scans) - np.log(spans[:2]).sum() + log_ext[:2].sum()
-                 + np.where(elevated, log_ext[2] - np.log(spans[-1]), 0.0))
-    return np.array([mixture_llr(v, OUTLIER_PROBABILITY) for v in log_ratio])
+    flat = np.log(n_clutter / n_scans) - np.log(spans[:2]).sum() + log_ext[:2].sum()
+    with_el = flat + (log_ext[2] - np.log(spans[-1]) if elevated.any() else 0.0)
+    return np.where(elevated, mixture_llr(with_el, OUTLIER_PROBABILITY),
+                    mixture_llr(flat, OUTLIER_PROBABILITY))
 
 
 def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
@@ -175,8 +177,7 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
     if idx.size == 0 or not tracks:
         return out
     t = batch.t[plots]
-    scan_t = np.array([np.median(t[scan == k]) for k in np.unique(scan)])
-    revisit = float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
+    revisit = revisit_period(t, scan)
     if not revisit > 0.0:
         return out
     llr = np.full((plots.size, len(tracks)), -np.inf)

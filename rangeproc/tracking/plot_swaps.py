@@ -26,7 +26,14 @@ from __future__ import annotations
 import numpy as np
 from rangeproc.quantiles import chi2_ppf
 
-from rangeproc.tracking.plots import ACCELERATION_PSD, CONFIRM_SCANS, INITIATION_SPEED
+from rangeproc.tracking.plots import (
+    ACCELERATION_PSD,
+    CONFIRM_SCANS,
+    predict_tracks,
+    start_track,
+    update_track,
+    revisit_period,
+)
 
 #: Scans either side of a boundary whose plots score the exchange.
 WINDOW_SCANS = 4
@@ -37,35 +44,19 @@ GATE_PROBABILITY = 0.9999
 def sequence_cost(t: np.ndarray, p: np.ndarray, R: np.ndarray) -> float:
     """Minus twice the log-likelihood (up to a constant) of plots at times ``t`` (N,) s,
     ENU positions ``p`` (N, 3) m and covariances ``R`` (N, 3, 3) m^2 as one object under
-    the plot tracker's constant-velocity filter: the sum over plots 2..N of
-    ``NIS + log det S``. The filter starts at the first plot with the tracker's velocity
-    prior (3 sigma = its ``INITIATION_SPEED``), so the first plot costs nothing and the
+    the plot tracker's constant-velocity filter (``tracking.plots``: its start, prediction
+    and update): the sum over plots 2..N of ``NIS + log det S``. The track starts at the
+    first plot with the tracker's velocity prior, so the first plot costs nothing and the
     second little."""
-    x = np.concatenate([p[0], np.zeros(3)])
-    P = np.zeros((6, 6))
-    P[:3, :3] = R[0]
-    P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)
+    track = start_track(p[0], R[0], float(t[0]), 0, 0)
     cost = 0.0
     for i in range(1, t.size):
-        dt = float(t[i] - t[i - 1])
-        a = abs(dt)
-        F = np.eye(6)
-        F[:3, 3:] = dt * np.eye(3)
-        Q = np.zeros((6, 6))
-        Q[:3, :3] = ACCELERATION_PSD * a ** 3 / 3 * np.eye(3)
-        Q[:3, 3:] = Q[3:, :3] = ACCELERATION_PSD * dt * a / 2 * np.eye(3)
-        Q[3:, 3:] = ACCELERATION_PSD * a * np.eye(3)
-        x = F @ x
-        P = F @ P @ F.T + Q
-        S = P[:3, :3] + R[i]
-        d = p[i] - x[:3]
-        L = np.linalg.cholesky(S)
-        w = np.linalg.solve(L, d)
+        xs, Ps = predict_tracks(track.x[None], track.P[None], np.array([track.t]), t[i:i + 1])
+        x, P = xs[0, 0], Ps[0, 0]
+        L = np.linalg.cholesky(P[:3, :3] + R[i])
+        w = np.linalg.solve(L, p[i] - x[:3])
         cost += float(w @ w) + 2.0 * float(np.log(np.diag(L)).sum())
-        K = np.linalg.solve(S, P[:3, :]).T
-        x = x + K @ d
-        P = P - K @ P[:3, :]
-        P = 0.5 * (P + P.T)
+        update_track(track, x, P, p[i], R[i], float(t[i]), 0, i)
     return cost
 
 
@@ -116,8 +107,7 @@ def _close_boundaries(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndar
     order = tracked[np.argsort(scan[tracked], kind="stable")]
     bounds = np.flatnonzero(np.diff(scan[order])) + 1
     starts = np.concatenate([[0], bounds])
-    scan_t = np.array([np.median(t[rows]) for rows in np.split(order, bounds)])
-    revisit = float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
+    revisit = revisit_period(t[tracked], scan[tracked])
     manoeuvre = ACCELERATION_PSD * revisit ** 3 / 3.0 * np.eye(3)
     for lo, rows in zip(starts, np.split(order, bounds)):
         if rows.size < 2:

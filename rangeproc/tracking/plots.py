@@ -97,6 +97,15 @@ def scan_numbers(t: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.cumsum(np.concatenate([[False], da < -np.pi])).astype(np.int64)
 
 
+def revisit_period(t: np.ndarray, scan: np.ndarray) -> float:
+    """Median time (s) between consecutive scans of plots at times ``t`` (N,) with scan
+    numbers ``scan`` (N,) (each scan at the median time of its plots); 0 with one scan."""
+    order = np.argsort(scan, kind="stable")
+    bounds = np.flatnonzero(np.diff(scan[order])) + 1
+    scan_t = np.array([np.median(t[rows]) for rows in np.split(order, bounds)])
+    return float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
+
+
 def plot_positions(r: np.ndarray, az: np.ndarray, el: np.ndarray, sig: np.ndarray,
                    s: np.ndarray, Qr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ENU positions (N, 3) m and covariances (N, 3, 3) m^2 of plots.
@@ -137,7 +146,7 @@ class _Track:
     rows: list[int] = field(default_factory=list)
 
 
-def _predict(x: np.ndarray, P: np.ndarray, t_track: np.ndarray, t: np.ndarray
+def predict_tracks(x: np.ndarray, P: np.ndarray, t_track: np.ndarray, t: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
     """CV prediction of L tracks to times ``t`` (A,): states x (L, 6) and covariances
     P (L, 6, 6) at their times ``t_track`` (L,) s -> states (L, A, 6), covariances
@@ -158,14 +167,14 @@ def _predict(x: np.ndarray, P: np.ndarray, t_track: np.ndarray, t: np.ndarray
     return xp, Pp
 
 
-def _start(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> _Track:
+def start_track(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> _Track:
     P = np.zeros((6, 6))
     P[:3, :3] = R
     P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)   # 3 sigma = the speed bound
     return _Track(np.concatenate([p, np.zeros(3)]), P, t, scan, scan, rows=[row])
 
 
-def _update(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.ndarray,
+def update_track(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.ndarray,
             t: float, scan: int, row: int) -> None:
     S = P[:3, :3] + R
     K = np.linalg.solve(S, P[:3, :]).T
@@ -194,8 +203,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
         k = int(scan[rows[0]])
         cost = np.full((rows.size, len(live)), np.inf)
         if live:                                     # every live track against every plot
-            xs, Ps = _predict(np.stack([tr.x for tr in live]), np.stack([tr.P for tr in live]),
-                              np.array([tr.t for tr in live]), t[rows])
+            xs, Ps = predict_tracks(np.stack([tr.x for tr in live]),
+                                    np.stack([tr.P for tr in live]),
+                                    np.array([tr.t for tr in live]), t[rows])
             S = Ps[:, :, :3, :3] + R[rows][None]
             d = p[rows][None] - xs[:, :, :3]
             m2 = np.einsum("lai,lai->la", d, np.linalg.solve(S, d[..., None])[..., 0])
@@ -208,8 +218,8 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
             a_idx, j_idx = linear_sum_assignment(np.where(np.isfinite(cost), cost, big))
             for a, j in zip(a_idx, j_idx):
                 if np.isfinite(cost[a, j]):
-                    _update(live[j], xs[j, a], Ps[j, a], p[rows[a]], R[rows[a]], t[rows[a]], k,
-                            int(rows[a]))
+                    update_track(live[j], xs[j, a], Ps[j, a], p[rows[a]], R[rows[a]], t[rows[a]], k,
+                                 int(rows[a]))
                     taken[a] = True
         for tr in live:
             if not tr.confirmed and tr.hits >= CONFIRM_HITS:
@@ -223,7 +233,7 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
         live = keep
         for a in np.flatnonzero(~taken):
             i = int(rows[a])
-            live.append(_start(p[i], R[i], t[i], k, i))
+            live.append(start_track(p[i], R[i], t[i], k, i))
     done.extend(live)
     label = np.full(t.size, -1, dtype=np.int64)
     confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])

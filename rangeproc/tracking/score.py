@@ -105,6 +105,19 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
 
 
 @njit(cache=True, nogil=True)
+def _nearest_epoch(ot: np.ndarray, t: float) -> int:
+    """Index of the epoch of ``ot`` (E,) s nearest to ``t`` (the earlier one at a tie; the
+    first or last outside the span)."""
+    n_epochs = ot.shape[0]
+    if n_epochs < 2:
+        return 0
+    e = min(max(np.searchsorted(ot, t), 1), n_epochs - 1)
+    if abs(ot[e - 1] - t) <= abs(ot[e] - t):
+        e -= 1
+    return e
+
+
+@njit(cache=True, nogil=True)
 def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarray,
                  sigma: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                  ot: np.ndarray, ox: np.ndarray, oP: np.ndarray, oq: np.ndarray,
@@ -124,7 +137,6 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
     definite, logdet (N,) log det S, log_ext (N,) log of the unrelated density's extent.
     """
     n = sel.shape[0]
-    n_epochs = ot.shape[0]
     h_all = np.zeros((n, N_COMPONENTS))
     L = np.zeros((n, N_COMPONENTS, N_COMPONENTS))
     m_all = np.zeros(n, dtype=np.int64)
@@ -139,13 +151,7 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
     HP = np.empty((N_COMPONENTS, 9))
     for i in range(n):
         r = sel[i]
-        e = epoch[i]
-        if e < 0 and n_epochs > 1:                # the nearest epoch
-            e = 0
-            e = min(max(np.searchsorted(ot, t[r]), 1), n_epochs - 1)
-            if abs(ot[e - 1] - t[r]) <= abs(ot[e] - t[r]):
-                e -= 1
-        e = max(e, 0)
+        e = epoch[i] if epoch[i] >= 0 else _nearest_epoch(ot, t[r])
         _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
         m = 0
@@ -266,7 +272,6 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
     definite: the trajectory did not weigh the row as stated.
     """
     k_rows = sel.shape[0]
-    n_epochs = ot.shape[0]
     xd = np.empty((k_rows, 9))
     Pd = np.empty((k_rows, 9, 9))
     ok = np.zeros(k_rows, dtype=np.bool_)
@@ -274,18 +279,18 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
     H = np.empty((N_COMPONENTS, 9))
     x = np.empty(9)
     P = np.empty((9, 9))
+    comp = np.empty(N_COMPONENTS, dtype=np.int64)
+    HP = np.empty((N_COMPONENTS, 9))
+    W = np.empty((N_COMPONENTS, 9))
+    D = np.empty((N_COMPONENTS, N_COMPONENTS))
+    res = np.empty((N_COMPONENTS, 1))
     for i in range(k_rows):
         r = sel[i]
-        e = 0
-        if n_epochs > 1:
-            e = min(max(np.searchsorted(ot, t[r]), 1), n_epochs - 1)
-            if abs(ot[e - 1] - t[r]) <= abs(ot[e] - t[r]):
-                e -= 1
+        e = _nearest_epoch(ot, t[r])
         _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
         xd[i] = x
         Pd[i] = P
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
-        comp = np.empty(N_COMPONENTS, dtype=np.int64)
         m = 0
         for c in range(N_COMPONENTS):
             if not math.isnan(z[r, c]):
@@ -293,23 +298,28 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
                 m += 1
         if m == 0:
             continue
-        Hm = np.empty((m, 9))
-        res = np.empty((m, 1))
-        for a in range(m):
+        for a in range(m):                                # H P (no acceleration columns)
             c = comp[a]
-            Hm[a] = H[c]
             d = z[r, c] - h[c]
             if model[r] == SPHERICAL and c == AZIMUTH:
                 d = wrap_angle(d)
             res[a, 0] = d
-        HP = Hm @ P                                       # (m, 9)
-        D = -(HP @ Hm.T)
-        for a in range(m):
+            for l in range(9):
+                acc = 0.0
+                for k in range(N_KINEMATIC_COLUMNS):
+                    acc += H[c, k] * P[k, l]
+                HP[a, l] = acc
+                W[a, l] = acc
+        for a in range(m):                                # D = R - H P Hᵀ
+            for b in range(m):
+                acc = 0.0
+                for k in range(N_KINEMATIC_COLUMNS):
+                    acc += HP[a, k] * H[comp[b], k]
+                D[a, b] = -acc
             D[a, a] += sigma[r, comp[a]] ** 2
         if not cholesky_inplace(D, m):
             continue
-        W = HP.copy()                                     # D⁻¹ H P
-        chol_solve_inplace(D, m, W, 9)
+        chol_solve_inplace(D, m, W, 9)                    # D⁻¹ H P
         chol_solve_inplace(D, m, res, 1)                  # D⁻¹ r
         for a in range(9):
             acc = 0.0
