@@ -9,6 +9,7 @@
 """
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import sys
@@ -102,7 +103,11 @@ def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
         if stream is not None:
             stream.flush()
     worker = ctx.Process(target=child, name="rangeproc-child", daemon=True)
-    worker.start()
+    gc.freeze()     # the child's collector then leaves the shared heap's pages unwritten
+    try:
+        worker.start()
+    finally:
+        gc.unfreeze()
     writer.close()
     finished = False
 

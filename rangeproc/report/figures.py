@@ -28,6 +28,12 @@ from rangeproc.results import SensorResiduals, TrackEstimate
 
 log = logging.getLogger(__name__)
 
+#: Drawing time of a figure relative to one sensor's residual figure (measured on the
+#: 10-object scale scenario: consistency 0.88 s, objects 0.77 s, trajectory 0.62 s, a
+#: residual figure 0.27-0.48 s); the report draws the costliest first.
+_DRAW_COST = {"consistency.png": 2.5, "objects.png": 2.2, "trajectory.png": 1.8,
+              "plan.png": 1.0, "coverage.png": 1.0, "calibration.png": 0.8}
+
 
 def residual_file_names(sensor_ids: Sequence[str]) -> list[str]:
     """``residuals_<id>.png`` per sensor id, sanitised and made unique (``_2``, ``_3`` ...)."""
@@ -90,14 +96,17 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     if calibration:
         jobs.append(("calibration.png", lambda: plot_calibration(calibration)))
 
+    # the costliest figures first, so the two processes finish together (longest job first)
+    order = sorted(range(len(jobs)), key=lambda k: -_DRAW_COST.get(jobs[k][0], 1.0))
+
     def draw(k: int) -> None:
-        name, plot = jobs[k]
+        name, plot = jobs[order[k]]
         with matplotlib.rc_context(STYLE):
             save_figure(plot(), report_dir / name)
 
     def done(k: int) -> None:
-        say(f"report: {jobs[k][0]}")
-        log.debug("wrote %s", report_dir / jobs[k][0])
+        say(f"report: {jobs[order[k]][0]}")
+        log.debug("wrote %s", report_dir / jobs[order[k]][0])
 
     shared_with_child(draw, len(jobs), done, first)
     written = [report_dir / name for name, _ in jobs]

@@ -134,12 +134,13 @@ def test_exception_midway_leaves_no_temp_file(tmp_path: Path, scenario,
     monkeypatch.setattr(figmod, "plot_residuals", fail_second)
     with pytest.raises(RuntimeError, match="boom"):
         write_report(tmp_path, tracks, residuals, sites=sites)
-    # the figures are drawn by this process and a forked child, each failing at its own
-    # second residual figure: which figures were finished depends on their timing, but each
-    # finished one is whole, the rest absent, and no temporary file is left
+    # the figures are drawn by this process and a forked child (costliest first), each
+    # failing at its own second residual figure: which figures were finished depends on
+    # their timing, but each finished one is whole, the rest absent, and no temporary file
+    # is left
     names = sorted(p.name for p in tmp_path.iterdir())
     residual = [n for n in names if n.startswith("residuals_")]
-    assert set(names) - set(residual) <= {"trajectory.png"}
+    assert set(names) - set(residual) <= {"trajectory.png", "consistency.png", "coverage.png"}
     assert 1 <= len(residual) <= 2
     for n in names:
         assert_good_png(tmp_path / n)
