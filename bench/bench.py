@@ -29,8 +29,10 @@
    the same way (after a warm-up on a 60 s ``scale`` scenario; stage seconds include
    ``associate``), and prints its rows, wall time, microseconds per row and their ratio to the
    single-object pipeline's (from this run, or from the previous results file when
-   ``--skip-pipeline``), against the issue's < 3x. Then scores the output against truth.csv
-   with ``rangeproc.evaluate`` (several objects: per truth object RMSE, coverage, identity
+   ``--skip-pipeline``), against the issue's < 3x: per measurement row of the objects (the
+   sortie's INS attitude rows, a quarter of its rows and nearly free, left out of its count;
+   the verdict) and per row of any kind (printed beside it). Then scores the output against
+   truth.csv with ``rangeproc.evaluate`` (several objects: per truth object RMSE, coverage, identity
    swaps; GOSPA), so that the speed is not bought with wrong answers.
 
 Writes every number plus machine info to ``bench/results.json`` (and prints the previous
@@ -70,8 +72,10 @@ import peers  # noqa: E402  (bench/ is put on sys.path just above)
 TARGET_US, TARGET_FP, TARGET_SS, TARGET_AGREE = 2.5, 25.0, 500.0, 1e-8
 TARGET_UKF_US, TARGET_UKF_FP = 5.0, 150.0
 TARGET_WALL_S, TARGET_PEAK_GB, TARGET_ROWS = 60.0, 3.0, 2_000_000
-#: several objects at scale: simulator kind, scenario length (s), limit on (us per row) /
-#: (single-object pipeline's us per row), GOSPA / assignment cutoff (m)
+#: several objects at scale: simulator kind, scenario length (s), limit on (us per measurement
+#: row) / (single-object pipeline's us per measurement row; measurement rows are those of the
+#: sensors that measure an object, not the INS attitude rows of a platform, which the
+#: several-objects scenario has none of and the sortie has 560k), GOSPA / assignment cutoff (m)
 MULTI_KIND, MULTI_DURATION_S, TARGET_MULTI_RATIO, MULTI_CUTOFF_M = "scale", 1800.0, 3.0, 50.0
 
 
@@ -450,6 +454,7 @@ def pipeline_record(cfg: Path, written: dict[str, int], sim_s: float | None, war
             "process_wall_s": wall, **r,
             "total_rows": n, "input_bytes": sum(p.stat().st_size for p in inputs),
             "us_per_meas_run": r["run_s"] / n * 1e6, "us_per_meas_wall": wall / n * 1e6,
+            "us_per_target_row_wall": wall / r["target_rows"] * 1e6,
             "peak_above_baseline_bytes_per_meas": extra / n}
 
 
@@ -458,7 +463,7 @@ def single_reference(res: dict, previous: Path) -> dict | None:
     run's (``res["pipeline"]``), else the previous results file's pipeline (or the reference
     that file's own several-objects run used); None when there is none."""
     keys = ("us_per_meas_wall", "us_per_meas_run", "total_rows", "duration_s",
-            "process_wall_s", "run_s")
+            "process_wall_s", "run_s", "target_rows", "us_per_target_row_wall")
     if "pipeline" in res:
         return {"source": "this run", **{k: res["pipeline"][k] for k in keys}}
     try:
@@ -467,7 +472,10 @@ def single_reference(res: dict, previous: Path) -> dict | None:
         return None
     when = old.get("machine", {}).get("timestamp", "?")
     if "pipeline" in old:
-        return {"source": f"{previous.name} of {when}", **{k: old["pipeline"][k] for k in keys}}
+        p = old["pipeline"]
+        if "target_rows" in p and "us_per_target_row_wall" not in p:     # older files
+            p["us_per_target_row_wall"] = p["process_wall_s"] / p["target_rows"] * 1e6
+        return {"source": f"{previous.name} of {when}", **{k: p[k] for k in keys if k in p}}
     ref = old.get("multi", {}).get("single_object_reference")
     return dict(ref) if ref else None
 
@@ -510,6 +518,9 @@ def multi_bench(a: argparse.Namespace, reference: dict | None) -> dict:
     rec["single_object_reference"] = reference
     if reference:
         rec["ratio_wall"] = rec["us_per_meas_wall"] / reference["us_per_meas_wall"]
+        if "us_per_target_row_wall" in reference:
+            rec["ratio_wall_target"] = (rec["us_per_target_row_wall"]
+                                        / reference["us_per_target_row_wall"])
         rec["ratio_run"] = rec["us_per_meas_run"] / reference["us_per_meas_run"]
     return rec
 
@@ -667,9 +678,15 @@ def multi_ratio_line(m: dict) -> str:
     if not ref:
         return head + "; no single-object pipeline figure to compare with (run without " \
                       "--skip-pipeline once)"
-    return (head + f" vs single object {ref['us_per_meas_wall']:.1f} us/row "
+    line = (head + f" vs single object {ref['us_per_meas_wall']:.1f} us/row "
             f"({ref['total_rows']:,} rows, {ref['duration_s']:g} s sortie, {ref['source']}): "
             f"{m['ratio_wall']:.2f}x")
+    if "ratio_wall_target" in m:
+        line += (f"; per measurement row of the objects (the sortie's "
+                 f"{ref['total_rows'] - ref['target_rows']:,} INS attitude rows left out of its "
+                 f"count): {m['us_per_target_row_wall']:.1f} vs "
+                 f"{ref['us_per_target_row_wall']:.1f} us/row = {m['ratio_wall_target']:.2f}x")
+    return line
 
 
 def print_multi(m: dict) -> None:
@@ -750,12 +767,15 @@ def print_acceptance(res: dict) -> None:
     m = res.get("multi")
     if m:
         full = m["duration_s"] >= MULTI_DURATION_S
-        verdict = ("n/a" if "ratio_wall" not in m else
-                   _ok(m["ratio_wall"] < TARGET_MULTI_RATIO) if full else
+        ratio = m.get("ratio_wall_target", m.get("ratio_wall"))
+        verdict = ("n/a" if ratio is None else
+                   _ok(ratio < TARGET_MULTI_RATIO) if full else
                    f"n/a (not the {MULTI_DURATION_S:g} s scenario)")
         tot = m["score"]["totals"]
         print(f"  several objects ({m['kind']}, {m['duration_s']:g} s, "
-              f"{tot['n_truth']} objects) < {TARGET_MULTI_RATIO:g}x the single-object us/row: "
+              f"{tot['n_truth']} objects) < {TARGET_MULTI_RATIO:g}x the single-object us per "
+              "measurement row (verdict on the objects' measurement rows; INS attitude rows "
+              "are not measurements of an object): "
               f"{multi_ratio_line(m)}  {verdict}")
         g = m["score"]["gospa"]["mean"]
         print(f"    (score: GOSPA mean {g:.2f} m, coverage mean {tot['coverage_mean']:.3f}, "

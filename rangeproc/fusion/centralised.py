@@ -57,7 +57,6 @@ from rangeproc.fusion.registration import (
     calibration_covariance,
     register,
 )
-from rangeproc.fusion.spline_refine import spline_refine
 from rangeproc.quantiles import chi2_ppf
 
 log = logging.getLogger(__name__)
@@ -455,6 +454,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             rho, (out, q, noise, why, cal) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
     if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
+        from rangeproc.fusion.spline_refine import spline_refine   # scipy.interpolate: 0.1 s
         xs, Ps, res, hph = spline_refine(
             out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
             settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
