@@ -259,6 +259,37 @@ def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
     click.echo(format_report(metrics))
 
 
+@main.command("export")
+@click.argument("out_dir", type=click.Path(path_type=Path))
+@click.option("--format", "formats", multiple=True, metavar="kml|czml|csv",
+              help="Format to write (repeat or comma-separate for several; default: all "
+                   "three).")
+@click.option("--epoch", default="1970-01-01T00:00:00Z", show_default=True,
+              help="UTC instant of time 0 on the range's time scale (ISO 8601 with Z or an "
+                   "offset); the default reads the times as Unix seconds.")
+@click.option("--interval", type=float, default=0.0, show_default=True,
+              help="KML and CZML: at most one epoch per this many seconds per object "
+                   "(0: every epoch).")
+@quiet_option
+@library_errors
+def export_cmd(out_dir: Path, formats: tuple[str, ...], epoch: str, interval: float,
+               quiet: bool) -> None:
+    """Write OUT_DIR/fused.parquet as fused.kml (Google Earth), fused.czml (Cesium) and
+    fused.csv (spreadsheets) beside it.
+
+    KML: a time-stamped track per object with its 1-sigma uncertainty per epoch. CZML:
+    time-tagged positions per object with a 3-sigma uncertainty ellipsoid. CSV: the fused
+    table with a UTC column. Exit status 2 for a missing or unreadable fused.parquet or a
+    bad option.
+    """
+    from rangeproc.interchange import FORMATS, export_run
+
+    chosen = [f.strip().lower() for spec in formats for f in spec.split(",") if f.strip()]
+    written = export_run(out_dir, chosen or FORMATS, epoch=epoch, interval_s=interval)
+    if not quiet:
+        click.echo(f"wrote {', '.join(str(p) for p in written)}")
+
+
 def leave(code: int) -> NoReturn:
     """End the process with exit status ``code`` without the interpreter's teardown.
 

@@ -16,7 +16,9 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from rangeproc.errors import ConfigError
+from rangeproc.errors import ConfigError, DataError
+from rangeproc.interchange import FORMATS
+from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -295,11 +297,24 @@ class _Validator:
                       sensors=tuple(sensors), processing=processing)
 
     def output(self, x: object, folder: Path) -> OutputSettings:
-        t = self.table(x, "output", ("dir", "rate_hz"))
+        t = self.table(x, "output", ("dir", "rate_hz", "export", "epoch"))
         out_dir = Path(self.string(t.get("dir", "out"), "output.dir")).expanduser()
         rate = self.positive(t.get("rate_hz", 10.0), "output.rate_hz")
         rate = self.bounded(rate, "output.rate_hz", *RATE_HZ_BOUNDS, "Hz")
-        return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate)
+        formats = []
+        for i, f in enumerate(self.array(t.get("export", []), "output.export")):
+            name = self.string(f, f"output.export[{i}]").strip().lower()
+            if name not in FORMATS:
+                raise self.error(f"output.export[{i}]", f"unknown format '{f}' (expected one "
+                                 f"of: {_join(FORMATS)})")
+            formats.append(name)
+        epoch = self.string(t.get("epoch", UNIX_EPOCH), "output.epoch")
+        try:
+            parse_epoch(epoch, "output.epoch")
+        except DataError as exc:
+            raise self.error("", str(exc)) from None
+        return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate,
+                              export=tuple(dict.fromkeys(formats)), epoch=epoch)
 
     def targets(self, x: object) -> tuple[TargetSettings, ...]:
         items = self.array(x, "targets")

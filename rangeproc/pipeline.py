@@ -35,6 +35,7 @@ from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
 from rangeproc.fusion.refraction_rows import RefractionSettings
 from rangeproc.fusion.registration import SensorCalibration
 from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.interchange import EXPORT_FILES, export_run
 from rangeproc.io.logs import SensorLog
 from rangeproc.io.output import fused_table
 from rangeproc.io.readers import read_sensor
@@ -232,6 +233,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     display; the default shows nothing.
     """
     from rangeproc.report.figures import write_report
+    from rangeproc.report.page import write_page
 
     clock = clock or StageClock()
     started = time.perf_counter()
@@ -323,10 +325,15 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                 {sid: lg.n_read for sid, lg in logs.items()},
                 cfg.targets[0].id if synthesis is None else None)
 
+        exports: list[Path] = []
+
         def write_tables() -> None:     # written while the report's child draws its first figures
             write_parquet(fused_table(tracks), stage / "fused.parquet")
             write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
             write_parquet(association, stage / "association.parquet")
+            if cfg.output.export:       # [output] export: KML / CZML / CSV beside the table
+                exports.extend(export_run(stage, cfg.output.export, epoch=cfg.output.epoch,
+                                          title=f"rangeproc {cfg.path.stem}"))
 
         with clock.stage("report", 4 + len(residuals) + 2 * (synthesis is not None)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
@@ -348,10 +355,11 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
             "stage_seconds": dict(clock.seconds),
         }
         with clock.stage("write"):
+            page = write_page(stage / "report", figures, summary, f"rangeproc: {cfg.path.stem}")
             write_json(summary, stage / "summary.json")
     written = [out_dir / "fused.parquet", out_dir / "edits.parquet",
-               out_dir / "association.parquet",
-               *(out_dir / "report" / f.name for f in figures),
+               out_dir / "association.parquet", *(out_dir / p.name for p in exports),
+               *(out_dir / "report" / f.name for f in (*figures, page)),
                out_dir / "summary.json"]
     return RunOutput(out_dir, tuple(tracks), tuple(residuals), summary, tuple(written),
                      dict(clock.seconds))
@@ -363,7 +371,8 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
 
     Every output of a run is first written into the staging folder; only when all of them are
     complete are they moved into place (``report/`` swapped as a whole, ``fused.parquet``,
-    ``edits.parquet``, then ``summary.json`` last, each by an atomic rename). A run that
+    ``edits.parquet``, ``association.parquet``, the exports of ``[output] export``, then
+    ``summary.json`` last, each by an atomic rename). A run that
     fails at any stage therefore leaves the previous run's outputs untouched and no partial or
     mixed set behind.
     """
@@ -377,6 +386,9 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
         os.replace(stage / "fused.parquet", out_dir / "fused.parquet")
         os.replace(stage / "edits.parquet", out_dir / "edits.parquet")
         os.replace(stage / "association.parquet", out_dir / "association.parquet")
+        for name in EXPORT_FILES:                    # [output] export, when asked for
+            if (stage / name).exists():
+                os.replace(stage / name, out_dir / name)
         os.replace(stage / "summary.json", out_dir / "summary.json")
     finally:
         shutil.rmtree(stage, ignore_errors=True)

@@ -52,10 +52,15 @@ class Geodetic:
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class OutputSettings:
-    """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz)."""
+    """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz);
+    ``export``: interchange formats written with every run (``rangeproc.interchange``:
+    "kml", "czml", "csv"); ``epoch``: the UTC instant (ISO 8601 with an offset) of time 0 on
+    the range's time scale, for the exports' calendar times."""
 
     dir: Path
     rate_hz: float = 10.0
+    export: tuple[str, ...] = ()
+    epoch: str = "1970-01-01T00:00:00Z"
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

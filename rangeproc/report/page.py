@@ -1,0 +1,170 @@
+"""``report/index.html``: the run on one self-contained page (issue 11, part 4).
+
+The page holds the summary tables and every report figure. Figures are embedded as base64
+``data:`` PNGs, the style sheet is inline and there is no script, so the file opens from a
+disk, a mail or a share with no network and nothing else beside it. The tables:
+
+* **objects**: span, duration, epochs, gaps (count, longest), largest 1-sigma position
+  uncertainty, the process noise found, divergence resets, segments associated;
+* **sensors**: rows read, used, rejected as wild, edited; noise a priori and estimated per
+  component; calibration estimates with their 1-sigma, or why a term is unobservable.
+
+Everything comes from the run's ``summary.json`` dictionary; angles are shown in mrad and
+latencies in ms. Written atomically.
+"""
+from __future__ import annotations
+
+import base64
+import html
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from rangeproc.io.writers import atomic_path
+
+#: What each figure shows (by file name; residual figures by prefix).
+CAPTIONS = {
+    "trajectory.png": "Plan view with the sensors' sites, altitude, speed and 1-sigma position "
+                      "uncertainty per object.",
+    "consistency.png": "Normalised innovations squared per sensor against their chi-square "
+                       "bounds, and their histograms.",
+    "coverage.png": "Used data spans per sensor, rejected points, and how many sensors "
+                    "contributed to each object when.",
+    "objects.png": "Which sensor saw which object when: relays, swaps found, bridged gaps.",
+    "plan.png": "Every object in plan view in its own colour; clutter and unassigned plots grey.",
+    "calibration.png": "Estimated biases, latency and mount angles with 1-sigma bars.",
+}
+#: Display scale and unit per SI unit.
+DISPLAY = {"rad": (1e3, "mrad"), "s": (1e3, "ms")}
+
+STYLE = """
+body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1200px;
+       color: #1d2630; padding: 0 16px; }
+h1 { font-size: 22px; margin-bottom: 4px; } h2 { font-size: 18px; margin-top: 32px; }
+h3 { font-size: 15px; margin: 24px 0 4px; }
+p.meta { color: #5a6570; margin-top: 0; }
+table { border-collapse: collapse; width: 100%; margin: 8px 0 16px; font-size: 13px; }
+th, td { border-bottom: 1px solid #d8dde2; padding: 4px 8px; text-align: left;
+         vertical-align: top; }
+th { background: #f1f4f7; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+figure { margin: 8px 0 28px; } figure img { max-width: 100%; border: 1px solid #d8dde2; }
+figcaption { color: #5a6570; font-size: 13px; }
+nav a { margin-right: 12px; }
+"""
+
+
+def _e(x: object) -> str:
+    return html.escape(str(x))
+
+
+def _num(v: float | None, digits: int = 4) -> str:
+    return "–" if v is None else f"{v:.{digits}g}"
+
+
+def _shown(value: float | None, unit: str) -> str:
+    """A value in its display unit ('0.473 mrad')."""
+    if value is None:
+        return "–"
+    scale, shown = DISPLAY.get(unit, (1.0, unit))
+    return f"{value * scale:.4g} {shown}"
+
+
+def _table(head: Sequence[str], rows: Sequence[Sequence[str]], numeric: set[int]) -> str:
+    """An HTML table; cells are HTML already (escaped by the caller)."""
+    out = ["<table><thead><tr>", *(f"<th>{_e(h)}</th>" for h in head), "</tr></thead><tbody>"]
+    for row in rows:
+        out.append("<tr>" + "".join(f'<td class="num">{c}</td>' if j in numeric else
+                                    f"<td>{c}</td>" for j, c in enumerate(row)) + "</tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+def objects_table(summary: Mapping[str, Any]) -> str:
+    """The per-object table (``summary["targets"]`` and its association)."""
+    assoc = (summary.get("association") or {}).get("objects", {})
+    rows = []
+    for oid, t in summary.get("targets", {}).items():
+        gaps = t.get("gaps") or []
+        longest = max((float(g[1]) - float(g[0]) for g in gaps
+                       if isinstance(g, (list, tuple)) and len(g) == 2), default=0.0)
+        q = (t.get("process_noise_q") or {}).get("median")
+        a = assoc.get(oid, {})
+        rows.append([
+            _e(oid) + (" <small>(discovered)</small>" if a.get("discovered") else ""),
+            _num(t.get("t_start"), 10), _num(t.get("t_end"), 10),
+            _num(None if t.get("t_start") is None else t["t_end"] - t["t_start"], 5),
+            _e(t.get("n_epochs", "–")), _e(len(gaps)), _num(longest, 3),
+            _num(t.get("max_sigma_position_m"), 3), _num(q, 3),
+            _e(t.get("divergence_resets", "–")), _e(len(a.get("segments", [])) or "–")])
+    return _table(["object", "start (s)", "end (s)", "duration (s)", "epochs", "gaps",
+                   "longest gap (s)", "max 1σ position (m)", "q median (m²/s⁵)",
+                   "divergence resets", "segments"], rows, set(range(1, 11)))
+
+
+def sensors_table(summary: Mapping[str, Any]) -> str:
+    """The per-sensor table: counts, noise and calibration."""
+    rows = []
+    for sid, s in summary.get("sensors", {}).items():
+        edited = sum((s.get("n_edited") or {}).values())
+        noise = "<br>".join(
+            f"{_e(c)}: {_e(_shown(n.get('apriori'), n.get('unit', '')))} → "
+            f"<b>{_e(_shown(n.get('estimated'), n.get('unit', '')))}</b>"
+            for c, n in (s.get("noise") or {}).items())
+        cal = "<br>".join(_calibration_cell(name, c)
+                          for name, c in (s.get("calibration") or {}).items())
+        rows.append([_e(sid), _e(s.get("kind", "")), _e(s.get("n_read", s.get("n_rows", "–"))),
+                     _e(s.get("n_used", "–")), _e(s.get("n_rejected", "–")), _e(edited),
+                     noise or "–", cal or "–"])
+    return _table(["sensor", "kind", "rows read", "used", "rejected (wild)", "edited",
+                   "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows, {2, 3, 4, 5})
+
+
+def _calibration_cell(name: str, c: Mapping[str, Any]) -> str:
+    if c.get("estimate") is None:
+        return f"{_e(name)}: <i>unobservable</i> ({_e(c.get('unobservable', ''))})"
+    applied = "" if c.get("applied", True) else " <small>(not significant, not applied)</small>"
+    unit = c.get("unit", "")
+    return (f"{_e(name)}: {_e(_shown(c['estimate'], unit))} ± "
+            f"{_e(_shown(c.get('sigma'), unit))}{applied}")
+
+
+def figure_block(path: Path) -> str:
+    """One embedded figure with its caption."""
+    name = path.name
+    caption = CAPTIONS.get(name) or (
+        f"Post-fit residuals of sensor {name[len('residuals_'):-4]} with their 3-sigma "
+        "envelope; rejected points marked." if name.startswith("residuals_") else name)
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return (f'<figure id="{_e(path.stem)}"><h3>{_e(name)}</h3>'
+            f'<img alt="{_e(name)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+
+def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -> str:
+    """The whole page as a string."""
+    cfg = summary.get("config", {})
+    n_obj, n_sen = len(summary.get("targets", {})), len(summary.get("sensors", {}))
+    meta = (f"rangeproc {_e(summary.get('rangeproc_version', ''))} · config "
+            f"{_e(cfg.get('file', ''))} · {n_obj} object{'s' * (n_obj != 1)} · "
+            f"{n_sen} sensor{'s' * (n_sen != 1)} · run took "
+            f"{_num(summary.get('elapsed_s'), 3)} s")
+    nav = " ".join(f'<a href="#{_e(p.stem)}">{_e(p.stem)}</a>' for p in figures)
+    return "".join([
+        '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',
+        f"<title>{_e(title)}</title><style>{STYLE}</style></head><body>",
+        f"<h1>{_e(title)}</h1><p class=\"meta\">{meta}</p>",
+        "<h2>Objects</h2>", objects_table(summary),
+        "<h2>Sensors</h2>", sensors_table(summary),
+        f"<h2>Figures</h2><nav>{nav}</nav>",
+        *(figure_block(p) for p in figures),
+        "</body></html>\n"])
+
+
+def write_page(report_dir: Path, figures: Sequence[Path], summary: Mapping[str, Any],
+               title: str) -> Path:
+    """Write ``report_dir/index.html`` (atomic) from the run's ``summary`` and its figure
+    files (embedded in the order given); returns its path."""
+    path = Path(report_dir) / "index.html"
+    with atomic_path(path) as tmp:
+        tmp.write_text(page_html(summary, figures, title), encoding="utf-8")
+    return path
