@@ -11,7 +11,7 @@ SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick reproduce accuracy registration multi autoferry sample-data lint clean
+.PHONY: install demo test fuzz bench bench-quick bench-campaign reproduce accuracy registration multi autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -41,6 +41,10 @@ bench: $(STAMP)
 
 bench-quick: $(STAMP)
 	$(BIN)/python bench/bench.py --quick
+
+## bench-campaign: 20 sample-sized sorties serially and on a 1- and 2-worker local Dask cluster
+bench-campaign: $(STAMP)
+	$(BIN)/python bench/campaign.py
 
 ## reproduce: each source document's experiment (bench/reproduction/) -> reproduction/README.md
 ## (claim vs our figure table) and PNGs; ONLY="002 004" runs a subset.

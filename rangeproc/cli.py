@@ -259,6 +259,50 @@ def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
     click.echo(format_report(metrics))
 
 
+EXIT_SORTIES_FAILED = 4
+
+
+@main.command("campaign")
+@click.argument("campaign", type=click.Path(path_type=Path))
+@click.option("--scheduler", metavar="ADDRESS", default=None,
+              help="Run on an existing Dask cluster (e.g. tcp://10.0.0.5:8786) instead of "
+                   "worker processes on this machine.")
+@click.option("--workers", type=int, default=None,
+              help="Worker processes of the local cluster (default: one per core).")
+@click.option("--force", is_flag=True,
+              help="Rerun every sortie, also those whose outputs match their inputs.")
+@quiet_option
+@library_errors
+def campaign_cmd(campaign: Path, scheduler: str | None, workers: int | None, force: bool,
+                 quiet: bool) -> None:
+    """Run every sortie of CAMPAIGN (a TOML file listing sortie configs, or a folder of
+    configs) as `rangeproc run` would, in parallel on a Dask cluster.
+
+    A sortie that fails is recorded with its one-line reason and the others go on; a rerun
+    skips sorties whose outputs exist and match their config and input hashes. Writes
+    campaign.json into the campaign's output folder. Exit status 0 when every sortie is
+    done, 4 when some failed, 2 for an unusable campaign file.
+    """
+    from rangeproc.campaign import load_campaign, run_campaign
+
+    spec = load_campaign(campaign)
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers: must be at least 1, got {workers}")
+    clock = _clock(quiet)
+    with clock.stage("campaign", len(spec.sorties)) as tick:
+        result = run_campaign(spec, scheduler=scheduler, workers=workers, resume=not force,
+                              tick=tick)
+    counts = result.counts()
+    if not quiet:
+        click.echo(f"campaign: {counts['done']} done, {counts['skipped']} skipped (up to "
+                   f"date), {counts['failed']} failed in {result.seconds:.1f} s on "
+                   f"{result.cluster}; records in {result.out_dir / 'campaign.json'}")
+    for o in result.failed:
+        click.echo(f"rangeproc: sortie {o.id} failed: {o.reason}", err=True)
+    if result.failed:
+        sys.exit(EXIT_SORTIES_FAILED)
+
+
 @main.command("export")
 @click.argument("out_dir", type=click.Path(path_type=Path))
 @click.option("--format", "formats", multiple=True, metavar="kml|czml|csv",

@@ -197,6 +197,13 @@ def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
     return out
 
 
+def _time_span(t: np.ndarray) -> dict[str, float | None]:
+    """``t_first``, ``t_last`` (s, range time scale) of a sensor's screened rows (None when
+    it has none)."""
+    return {"t_first": float(t.min()) if t.size else None,
+            "t_last": float(t.max()) if t.size else None}
+
+
 def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[dict, dict]:
     model = int(res.batch.model[res.batch.sensor == index][0])
     names, units = COMPONENTS[model]
@@ -256,7 +263,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                "n_rows": len(raw[s.id]), "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
                "n_rejected": 0, "n_no_platform_geometry": 0,
                "n_edited": edits.counts(s.id), "edit_examples": edits.examples(s.id),
-               "n_unstarted": 0} for s in cfg.sensors}
+               "n_unstarted": 0, **_time_span(logs[s.id].time)} for s in cfg.sensors}
     del raw
     n_no_platform = {sid: a.n_no_platform for sid, a in rows.items()}
     sites = _sites(cfg, frame, rows)
@@ -365,6 +372,26 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                      dict(clock.seconds))
 
 
+#: Staging folders are named ``<prefix><pid of the run>-<random>``.
+STAGING_PREFIX = ".rangeproc-staging-"
+
+
+def remove_orphaned_staging(out_dir: Path) -> None:
+    """Remove staging folders in ``out_dir`` left by runs on this host whose process no longer
+    exists (killed with SIGKILL, e.g. a campaign worker lost mid-sortie: its ``finally``
+    never ran). A live run's folder is left alone."""
+    for folder in out_dir.glob(f"{STAGING_PREFIX}*"):
+        pid = folder.name[len(STAGING_PREFIX):].split("-", 1)[0]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except (PermissionError, OSError):
+            pass                                         # alive, or not ours to judge
+
+
 @contextmanager
 def staged_outputs(out_dir: Path) -> Iterator[Path]:
     """Yield a hidden staging folder inside ``out_dir``; publish its contents on success.
@@ -376,7 +403,8 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
     fails at any stage therefore leaves the previous run's outputs untouched and no partial or
     mixed set behind.
     """
-    stage = Path(tempfile.mkdtemp(prefix=".rangeproc-staging-", dir=out_dir))
+    remove_orphaned_staging(out_dir)
+    stage = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-", dir=out_dir))
     try:
         yield stage
         old = stage / ".old-report"

@@ -6,6 +6,7 @@ folder. One full run of the 120 s sample takes a few seconds, so it is done once
 """
 from __future__ import annotations
 
+import os
 import shutil
 import traceback
 from collections.abc import Callable
@@ -111,3 +112,50 @@ def _plot_batch(t, rae, sigma):
 def plot_batch():
     """``plot_batch(t, rae, sigma)``: radar plots as a MeasurementBatch (``_plot_batch``)."""
     return _plot_batch
+
+
+# ------------------------------------------------------------------ a real headless browser
+#: Debian's chromium + chromium-driver (report pages are tested in them, through Selenium).
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+
+def _browser():  # type: ignore[no-untyped-def]
+    if not (CHROMIUM and CHROMEDRIVER):
+        if os.environ.get("RANGEPROC_REQUIRE_BROWSER") == "1":
+            pytest.fail("RANGEPROC_REQUIRE_BROWSER=1 but chromium/chromedriver are not installed")
+        pytest.skip("no chromium + chromedriver (Debian: apt-get install chromium "
+                    "chromium-driver)")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                 "--no-first-run", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--window-size=1280,1600"):
+        opts.add_argument(flag)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=opts)
+
+
+@pytest.fixture(scope="session")
+def browser():  # type: ignore[no-untyped-def]
+    driver = _browser()
+    yield driver
+    driver.quit()
+
+
+@pytest.fixture
+def open_page(browser):  # type: ignore[no-untyped-def]
+    """``open_page(path)`` -> (console errors, images): loads ``path`` in the browser and
+    returns its SEVERE console entries and, per ``<img>``, [alt, complete, naturalWidth]."""
+    def load(path: Path) -> tuple[list[dict], list[list]]:
+        browser.get(Path(path).as_uri())
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        images = browser.execute_script(
+            "return Array.from(document.images).map(i => [i.alt, i.complete, i.naturalWidth])")
+        return errors, images
+    return load
+
+

@@ -53,7 +53,7 @@ nav a { margin-right: 12px; }
 """
 
 
-def _e(x: object) -> str:
+def esc(x: object) -> str:
     return html.escape(str(x))
 
 
@@ -69,9 +69,9 @@ def _shown(value: float | None, unit: str) -> str:
     return f"{value * scale:.4g} {shown}"
 
 
-def _table(head: Sequence[str], rows: Sequence[Sequence[str]], numeric: set[int]) -> str:
+def html_table(head: Sequence[str], rows: Sequence[Sequence[str]], numeric: set[int]) -> str:
     """An HTML table; cells are HTML already (escaped by the caller)."""
-    out = ["<table><thead><tr>", *(f"<th>{_e(h)}</th>" for h in head), "</tr></thead><tbody>"]
+    out = ["<table><thead><tr>", *(f"<th>{esc(h)}</th>" for h in head), "</tr></thead><tbody>"]
     for row in rows:
         out.append("<tr>" + "".join(f'<td class="num">{c}</td>' if j in numeric else
                                     f"<td>{c}</td>" for j, c in enumerate(row)) + "</tr>")
@@ -90,13 +90,13 @@ def objects_table(summary: Mapping[str, Any]) -> str:
         q = (t.get("process_noise_q") or {}).get("median")
         a = assoc.get(oid, {})
         rows.append([
-            _e(oid) + (" <small>(discovered)</small>" if a.get("discovered") else ""),
+            esc(oid) + (" <small>(discovered)</small>" if a.get("discovered") else ""),
             _num(t.get("t_start"), 10), _num(t.get("t_end"), 10),
             _num(None if t.get("t_start") is None else t["t_end"] - t["t_start"], 5),
-            _e(t.get("n_epochs", "–")), _e(len(gaps)), _num(longest, 3),
+            esc(t.get("n_epochs", "–")), esc(len(gaps)), _num(longest, 3),
             _num(t.get("max_sigma_position_m"), 3), _num(q, 3),
-            _e(t.get("divergence_resets", "–")), _e(len(a.get("segments", [])) or "–")])
-    return _table(["object", "start (s)", "end (s)", "duration (s)", "epochs", "gaps",
+            esc(t.get("divergence_resets", "–")), esc(len(a.get("segments", [])) or "–")])
+    return html_table(["object", "start (s)", "end (s)", "duration (s)", "epochs", "gaps",
                    "longest gap (s)", "max 1σ position (m)", "q median (m²/s⁵)",
                    "divergence resets", "segments"], rows, set(range(1, 11)))
 
@@ -107,52 +107,52 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
     for sid, s in summary.get("sensors", {}).items():
         edited = sum((s.get("n_edited") or {}).values())
         noise = "<br>".join(
-            f"{_e(c)}: {_e(_shown(n.get('apriori'), n.get('unit', '')))} → "
-            f"<b>{_e(_shown(n.get('estimated'), n.get('unit', '')))}</b>"
+            f"{esc(c)}: {esc(_shown(n.get('apriori'), n.get('unit', '')))} → "
+            f"<b>{esc(_shown(n.get('estimated'), n.get('unit', '')))}</b>"
             for c, n in (s.get("noise") or {}).items())
         cal = "<br>".join(_calibration_cell(name, c)
                           for name, c in (s.get("calibration") or {}).items())
-        rows.append([_e(sid), _e(s.get("kind", "")), _e(s.get("n_read", s.get("n_rows", "–"))),
-                     _e(s.get("n_used", "–")), _e(s.get("n_rejected", "–")), _e(edited),
+        rows.append([esc(sid), esc(s.get("kind", "")), esc(s.get("n_read", s.get("n_rows", "–"))),
+                     esc(s.get("n_used", "–")), esc(s.get("n_rejected", "–")), esc(edited),
                      noise or "–", cal or "–"])
-    return _table(["sensor", "kind", "rows read", "used", "rejected (wild)", "edited",
+    return html_table(["sensor", "kind", "rows read", "used", "rejected (wild)", "edited",
                    "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows, {2, 3, 4, 5})
 
 
 def _calibration_cell(name: str, c: Mapping[str, Any]) -> str:
     if c.get("estimate") is None:
-        return f"{_e(name)}: <i>unobservable</i> ({_e(c.get('unobservable', ''))})"
+        return f"{esc(name)}: <i>unobservable</i> ({esc(c.get('unobservable', ''))})"
     applied = "" if c.get("applied", True) else " <small>(not significant, not applied)</small>"
     unit = c.get("unit", "")
-    return (f"{_e(name)}: {_e(_shown(c['estimate'], unit))} ± "
-            f"{_e(_shown(c.get('sigma'), unit))}{applied}")
+    return (f"{esc(name)}: {esc(_shown(c['estimate'], unit))} ± "
+            f"{esc(_shown(c.get('sigma'), unit))}{applied}")
 
 
-def figure_block(path: Path) -> str:
-    """One embedded figure with its caption."""
+def figure_block(path: Path, caption: str | None = None) -> str:
+    """One embedded figure with its caption (default: by its file name, :data:`CAPTIONS`)."""
     name = path.name
-    caption = CAPTIONS.get(name) or (
+    caption = caption or CAPTIONS.get(name) or (
         f"Post-fit residuals of sensor {name[len('residuals_'):-4]} with their 3-sigma "
         "envelope; rejected points marked." if name.startswith("residuals_") else name)
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f'<figure id="{_e(path.stem)}"><h3>{_e(name)}</h3>'
-            f'<img alt="{_e(name)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{_e(caption)}</figcaption></figure>")
+    return (f'<figure id="{esc(path.stem)}"><h3>{esc(name)}</h3>'
+            f'<img alt="{esc(name)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{esc(caption)}</figcaption></figure>")
 
 
 def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -> str:
     """The whole page as a string."""
     cfg = summary.get("config", {})
     n_obj, n_sen = len(summary.get("targets", {})), len(summary.get("sensors", {}))
-    meta = (f"rangeproc {_e(summary.get('rangeproc_version', ''))} · config "
-            f"{_e(cfg.get('file', ''))} · {n_obj} object{'s' * (n_obj != 1)} · "
+    meta = (f"rangeproc {esc(summary.get('rangeproc_version', ''))} · config "
+            f"{esc(cfg.get('file', ''))} · {n_obj} object{'s' * (n_obj != 1)} · "
             f"{n_sen} sensor{'s' * (n_sen != 1)} · run took "
             f"{_num(summary.get('elapsed_s'), 3)} s")
-    nav = " ".join(f'<a href="#{_e(p.stem)}">{_e(p.stem)}</a>' for p in figures)
+    nav = " ".join(f'<a href="#{esc(p.stem)}">{esc(p.stem)}</a>' for p in figures)
     return "".join([
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',
-        f"<title>{_e(title)}</title><style>{STYLE}</style></head><body>",
-        f"<h1>{_e(title)}</h1><p class=\"meta\">{meta}</p>",
+        f"<title>{esc(title)}</title><style>{STYLE}</style></head><body>",
+        f"<h1>{esc(title)}</h1><p class=\"meta\">{meta}</p>",
         "<h2>Objects</h2>", objects_table(summary),
         "<h2>Sensors</h2>", sensors_table(summary),
         f"<h2>Figures</h2><nav>{nav}</nav>",

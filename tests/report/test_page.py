@@ -12,19 +12,13 @@ from __future__ import annotations
 import base64
 import io
 import json
-import os
-import shutil
 from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
-import pytest
 from PIL import Image
 
 from rangeproc.report.page import page_html
-
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
 
 
 class PageParser(HTMLParser):
@@ -91,48 +85,13 @@ def test_page_shows_unobservable_terms_with_their_reason(tmp_path: Path) -> None
 
 
 # ------------------------------------------------------------------ in a real browser
-def _browser():  # type: ignore[no-untyped-def]
-    if not (CHROMIUM and CHROMEDRIVER):
-        if os.environ.get("RANGEPROC_REQUIRE_BROWSER") == "1":
-            pytest.fail("RANGEPROC_REQUIRE_BROWSER=1 but chromium/chromedriver are not installed")
-        pytest.skip("no chromium + chromedriver (Debian: apt-get install chromium "
-                    "chromium-driver)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                 "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--window-size=1280,1600"):
-        opts.add_argument(flag)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    return webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=opts)
-
-
-@pytest.fixture(scope="module")
-def browser():  # type: ignore[no-untyped-def]
-    driver = _browser()
-    yield driver
-    driver.quit()
-
-
-def _errors(driver) -> list[dict]:  # type: ignore[no-untyped-def]
-    return [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
-
-
-def _images(driver) -> list[list]:  # type: ignore[no-untyped-def]
-    return driver.execute_script(
-        "return Array.from(document.images).map(i => [i.alt, i.complete, i.naturalWidth])")
-
-
-def test_page_loads_in_chromium_with_every_figure_shown(browser, sample_run, tmp_path) -> None:
+def test_page_loads_in_chromium_with_every_figure_shown(browser, open_page, sample_run,
+                                                        tmp_path) -> None:
     from selenium.webdriver.common.by import By
 
-    browser.get((sample_run.out_dir / "report" / "index.html").as_uri())
+    errors, images = open_page(sample_run.out_dir / "report" / "index.html")
     assert browser.execute_script("return document.readyState") == "complete"
-    assert _errors(browser) == []
-    images = _images(browser)
+    assert errors == []
     assert len(images) >= 8 and all(done and width > 300 for _, done, width in images), images
     for img in browser.find_elements(By.TAG_NAME, "img")[:3]:
         browser.execute_script("arguments[0].scrollIntoView()", img)
@@ -142,11 +101,11 @@ def test_page_loads_in_chromium_with_every_figure_shown(browser, sample_run, tmp
     browser.save_screenshot(str(tmp_path / "page.png"))
 
 
-def test_the_browser_checks_can_fail(browser, tmp_path: Path) -> None:
+def test_the_browser_checks_can_fail(open_page, tmp_path: Path) -> None:
     """The console and image checks above see a script error and a missing image."""
     bad = tmp_path / "bad.html"
     bad.write_text('<!DOCTYPE html><html><body><img alt="gone" src="missing.png">'
                    "<script>throw new Error('boom')</script></body></html>")
-    browser.get(bad.as_uri())
-    assert any("boom" in e["message"] for e in _errors(browser))
-    assert _images(browser) == [["gone", True, 0]]
+    errors, images = open_page(bad)
+    assert any("boom" in e["message"] for e in errors)
+    assert images == [["gone", True, 0]]

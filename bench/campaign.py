@@ -1,0 +1,147 @@
+"""Campaign benchmark (issue 11): N sample-sized sorties, serially and on a local Dask cluster.
+
+Builds ``bench/data/campaign_<N>/`` (N copies of the bundled sample sortie's config, each
+writing its own output folder, all reading the one copy of ``sample_data``), then times:
+
+1. **serial, one process**: ``pipeline.run`` on every sortie in turn in this process (the
+   compiled kernels loaded once, as a cluster's workers keep them);
+2. **serial, a process per sortie**: ``rangeproc run`` in a shell-style loop (each process
+   pays its imports and kernel loading);
+3. ``rangeproc campaign --force`` (``campaign.run_campaign``) on a ``LocalCluster`` with 1 and
+   with 2 worker processes, the cluster's start included;
+4. Dask's overhead per task: 400 no-op tasks through a 2-worker ``LocalCluster``.
+
+Prints the scaling and the issue's figure (2 workers at most 0.6x the serial time), the
+per-sortie cost, and what a 16-worker cluster would need for the campaign; writes
+``bench/campaign.json``.
+
+    python bench/campaign.py [--sorties 20] [--skip-process-loop]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLE = ROOT / "sample_data"
+TARGET_RATIO = 0.6
+
+
+def build(n: int) -> Path:
+    """``bench/data/campaign_<n>/``: flights/s01.toml ... and campaign.toml."""
+    folder = ROOT / "bench" / "data" / f"campaign_{n}"
+    shutil.rmtree(folder, ignore_errors=True)
+    (folder / "flights").mkdir(parents=True)
+    text = (SAMPLE / "scenario.toml").read_text()
+    for k in range(1, n + 1):
+        body = text.replace('dir = "out"', f'dir = "../out/s{k:02d}"')
+        body = body.replace('file = "', f'file = "{SAMPLE.as_posix()}/')
+        (folder / "flights" / f"s{k:02d}.toml").write_text(body)
+    (folder / "campaign.toml").write_text(
+        '[output]\ndir = "records"\n\n' + "".join(
+            f'[[sorties]]\nconfig = "flights/s{k:02d}.toml"\n\n' for k in range(1, n + 1)))
+    return folder
+
+
+def serial_in_process(folder: Path) -> tuple[float, list[float]]:
+    from rangeproc.pipeline import run
+
+    run(folder / "flights" / "s01.toml")                     # warm: kernels loaded
+    each = []
+    t0 = time.perf_counter()
+    for cfg in sorted((folder / "flights").glob("*.toml")):
+        t1 = time.perf_counter()
+        run(cfg)
+        each.append(time.perf_counter() - t1)
+    return time.perf_counter() - t0, each
+
+
+def serial_processes(folder: Path) -> float:
+    exe = Path(sys.executable).with_name("rangeproc")
+    t0 = time.perf_counter()
+    for cfg in sorted((folder / "flights").glob("*.toml")):
+        subprocess.run([str(exe), "run", "--quiet", str(cfg)], check=True)
+    return time.perf_counter() - t0
+
+
+def campaign(folder: Path, workers: int) -> tuple[float, list[float]]:
+    from rangeproc.campaign import load_campaign, run_campaign
+
+    t0 = time.perf_counter()
+    result = run_campaign(load_campaign(folder / "campaign.toml"), workers=workers,
+                          resume=False)
+    wall = time.perf_counter() - t0
+    assert result.counts()["done"] == len(result.outcomes), result.counts()
+    return wall, [o.seconds for o in result.outcomes]
+
+
+def task_overhead(n: int = 400) -> tuple[float, float]:
+    """(s per no-op task through a 2-worker LocalCluster, cluster start s)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    t0 = time.perf_counter()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as client:
+        start = time.perf_counter() - t0
+        client.gather(client.map(abs, range(50)))             # warm
+        t1 = time.perf_counter()
+        client.gather([client.submit(abs, -k, pure=False) for k in range(n)])
+        return (time.perf_counter() - t1) / n, start
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sorties", type=int, default=20)
+    ap.add_argument("--skip-process-loop", action="store_true",
+                    help="leave out the rangeproc-run-per-sortie loop")
+    a = ap.parse_args(argv)
+    folder = build(a.sorties)
+    print(f"campaign bench: {a.sorties} sample-sized sorties in {folder}", flush=True)
+    serial, each = serial_in_process(folder)
+    print(f"serial, one process:          {serial:6.1f} s ({statistics.median(each):.2f} s "
+          "per sortie, median)", flush=True)
+    loop = None if a.skip_process_loop else serial_processes(folder)
+    if loop is not None:
+        print(f"serial, a process per sortie: {loop:6.1f} s ({loop / a.sorties:.2f} s per "
+              "sortie: imports and kernel loading each time)", flush=True)
+    one, one_each = campaign(folder, 1)
+    print(f"campaign, 1 worker:           {one:6.1f} s", flush=True)
+    two, two_each = campaign(folder, 2)
+    print(f"campaign, 2 workers:          {two:6.1f} s", flush=True)
+    per_task, start = task_overhead()
+    ratio = two / serial
+    per_sortie = statistics.median(two_each)
+    # 16 workers: the sorties in ceil(N/16) waves at the measured per-sortie cost (a worker
+    # per core: no sharing of cores as on this 2-core machine), plus start and dispatch
+    waves = -(-a.sorties // 16)
+    need16 = start + waves * statistics.median(one_each) + a.sorties * per_task
+    print(f"Dask: {per_task * 1e3:.2f} ms per task through the scheduler; LocalCluster start "
+          f"{start:.1f} s; per sortie on a worker: {statistics.median(one_each):.2f} s alone, "
+          f"{per_sortie:.2f} s with 2 workers on 2 cores")
+    print(f"scaling: 1 -> 2 workers {one:.1f} -> {two:.1f} s ({one / two:.2f}x); "
+          f"16 workers (16 cores) would need about {need16:.1f} s for these {a.sorties} "
+          f"sorties ({waves} wave{'s' * (waves != 1)})")
+    verdict = "PASS" if ratio <= TARGET_RATIO else "FAIL"
+    print(f"  2-worker campaign <= {TARGET_RATIO:g}x the serial time: {two:.1f} / {serial:.1f} "
+          f"s = {ratio:.2f}x  {verdict}"
+          + (f" (against the process-per-sortie loop: {two / loop:.2f}x)" if loop else ""))
+    (ROOT / "bench" / "campaign.json").write_text(json.dumps({
+        "sorties": a.sorties, "serial_in_process_s": serial, "serial_each_s": each,
+        "serial_process_loop_s": loop, "campaign_1_worker_s": one,
+        "campaign_2_workers_s": two, "campaign_1_each_s": one_each,
+        "campaign_2_each_s": two_each, "task_overhead_s": per_task,
+        "local_cluster_start_s": start, "ratio_2_workers_to_serial": ratio,
+        "projected_16_workers_s": need16}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
