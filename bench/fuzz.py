@@ -16,6 +16,7 @@ import argparse
 import collections
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -67,8 +68,21 @@ def start_worker(k: int, cases: int, a: argparse.Namespace, records: Path
                MPLBACKEND="Agg")
     cmd = [sys.executable, "-m", "pytest", "tests/fuzz", "-q", "-p", "no:cacheprovider"]
     with log.open("wb") as fh:
-        proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=fh, stderr=subprocess.STDOUT)
+        # its own process group, so that stopping the campaign stops its case children too
+        proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=fh, stderr=subprocess.STDOUT,
+                                start_new_session=True)
     return proc, record, log
+
+
+def stop_workers(workers: list[tuple[subprocess.Popen, Path, Path]]) -> None:
+    """Kill every worker still running, with the case processes it started."""
+    for p, _, _ in workers:
+        if p.poll() is None:
+            try:
+                os.killpg(p.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            p.wait()
 
 
 def run_campaign(a: argparse.Namespace, records: Path) -> tuple[list[dict], list[str]]:
@@ -76,12 +90,17 @@ def run_campaign(a: argparse.Namespace, records: Path) -> tuple[list[dict], list
     shares = [a.cases // a.jobs + (1 if k < a.cases % a.jobs else 0) for k in range(a.jobs)]
     workers = [start_worker(k, n, a, records) for k, n in enumerate(shares) if n > 0]
     started = last = time.monotonic()
-    while any(p.poll() is None for p, _, _ in workers):
-        time.sleep(1.0)
-        if time.monotonic() - last >= PROGRESS_EVERY_S:
-            last = time.monotonic()
-            done = sum(count_lines(r) for _, r, _ in workers)
-            print(f"  {done}/{a.cases} cases, {last - started:.0f} s", flush=True)
+    # Ctrl-C or a SIGTERM to this process stops the workers too (they ran on as orphans)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    try:
+        while any(p.poll() is None for p, _, _ in workers):
+            time.sleep(1.0)
+            if time.monotonic() - last >= PROGRESS_EVERY_S:
+                last = time.monotonic()
+                done = sum(count_lines(r) for _, r, _ in workers)
+                print(f"  {done}/{a.cases} cases, {last - started:.0f} s", flush=True)
+    finally:
+        stop_workers(workers)
     problems = []
     for p, _, log in workers:
         if p.returncode != 0:
