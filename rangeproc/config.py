@@ -1,4 +1,5 @@
-"""Config: TOML -> frozen dataclasses. The only module that reads TOML.
+"""Config: TOML -> frozen dataclasses. The only module that reads a run's config (a campaign's
+own file is read by ``rangeproc.campaign.spec``).
 
 Every error raises :class:`~rangeproc.errors.ConfigError` with a one-line message naming the
 config file and the key at fault, e.g. ``sample.toml: sensors[2].sigma.azimth: unknown key``.
@@ -11,11 +12,12 @@ import dataclasses
 import math
 import re
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from rangeproc.config_checks import ValueChecks, a_kind, join_names, show_value, type_name
 from rangeproc.errors import ConfigError, DataError
 from rangeproc.interchange import FORMATS
 from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch
@@ -159,105 +161,10 @@ def _toml_syntax_error(name: str, exc: tomllib.TOMLDecodeError) -> ConfigError:
     return ConfigError(f"{name}: invalid TOML: {msg}")
 
 
-def _is_number(x: object) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def _type_name(x: object) -> str:
-    names = {bool: "a boolean", str: "a string", int: "an integer", float: "a number",
-             dict: "a table", list: "an array"}
-    return names.get(type(x), f"a {type(x).__name__}")
-
-
-def _show(x: object) -> str:
-    """A TOML-looking rendering of a value for messages."""
-    if isinstance(x, bool):
-        return "true" if x else "false"
-    return repr(x)
-
-
-def _a(kind: str) -> str:
-    """'a radar', 'an ins'."""
-    return f"an {kind}" if kind[:1] in "aeiou" else f"a {kind}"
-
-
-def _join(names: Sequence[str]) -> str:
-    return ", ".join(names)
-
-
-class _Validator:
+class _Validator(ValueChecks):
     """Walks the parsed TOML document; every check raises a one-line ConfigError."""
 
-    def __init__(self, file_name: str) -> None:
-        self.file_name = file_name
-
-    def error(self, key: str, problem: str) -> ConfigError:
-        where = f"{key}: " if key else ""
-        return ConfigError(f"{self.file_name}: {where}{problem}")
-
-    # ---- primitive checks ----------------------------------------------------------------
-    def table(self, x: object, key: str, allowed: Sequence[str]) -> dict[str, Any]:
-        if not isinstance(x, dict):
-            raise self.error(key, f"expected a table, got {_type_name(x)}")
-        for k in x:
-            if k not in allowed:
-                raise self.error(f"{key}.{k}" if key else k,
-                                 f"unknown key (expected one of: {_join(allowed)})")
-        return x
-
-    def required(self, t: Mapping[str, Any], name: str, key: str) -> Any:
-        if name not in t:
-            raise self.error(f"{key}.{name}" if key else name, "missing required key")
-        return t[name]
-
-    def number(self, x: object, key: str) -> float:
-        if not _is_number(x):
-            raise self.error(key, f"expected a number, got {_type_name(x)} ({_show(x)})")
-        value = float(x)  # type: ignore[arg-type]
-        if not math.isfinite(value):
-            raise self.error(key, f"must be a finite number, got {value}")
-        return value
-
-    def positive(self, x: object, key: str) -> float:
-        value = self.number(x, key)
-        if value <= 0.0:
-            raise self.error(key, f"must be > 0, got {value:g}")
-        return value
-
-    def probability(self, x: object, key: str, bounds: tuple[float, float]) -> float:
-        """A probability in the half-open ``[lo, hi)`` of ``bounds``."""
-        p = self.number(x, key)
-        lo, hi = bounds
-        if not lo <= p < hi:
-            raise self.error(key, f"must be in [{lo:g}, {hi:g}), got {p:g}")
-        return p
-
-    def bounded(self, x: object, key: str, lo: float, hi: float, unit: str = "") -> float:
-        """A number in [lo, hi] (plausibility bounds; the message gives them)."""
-        value = self.number(x, key)
-        if not lo <= value <= hi:
-            u = f" {unit}" if unit else ""
-            raise self.error(key, f"{value:g}{u} is outside the plausible range "
-                                  f"[{lo:g}, {hi:g}]{u}")
-        return value
-
-    def boolean(self, x: object, key: str) -> bool:
-        if not isinstance(x, bool):
-            raise self.error(key, f"expected true or false, got {_type_name(x)} ({_show(x)})")
-        return x
-
-    def string(self, x: object, key: str) -> str:
-        if not isinstance(x, str):
-            raise self.error(key, f"expected a string, got {_type_name(x)} ({_show(x)})")
-        if not x.strip():
-            raise self.error(key, "must not be empty")
-        return x
-
-    def array(self, x: object, key: str) -> list[Any]:
-        if not isinstance(x, list):
-            raise self.error(key, f"expected an array, got {_type_name(x)}")
-        return x
-
+    # ---- geodetic positions ------------------------------------------------------------
     def geodetic(self, x: object, key: str) -> Geodetic:
         t = self.table(x, key, _GEODETIC_KEYS)
         lat = self.number(self.required(t, "lat", key), f"{key}.lat")
@@ -269,14 +176,6 @@ class _Validator:
         if not -180.0 <= lon < 360.0:
             raise self.error(f"{key}.lon", f"longitude {lon:g} outside [-180, 360) degrees")
         return Geodetic(lat=lat, lon=lon, height=height)
-
-    def unique_ids(self, ids: Sequence[str], key_of: Callable[[int], str], what: str) -> None:
-        seen: dict[str, int] = {}
-        for i, ident in enumerate(ids):
-            if ident in seen:
-                raise self.error(key_of(i),
-                                 f"duplicate {what} id '{ident}' (also {key_of(seen[ident])})")
-            seen[ident] = i
 
     # ---- sections ------------------------------------------------------------------------
     def config(self, doc: dict[str, Any], cfg_path: Path) -> Config:
@@ -306,7 +205,7 @@ class _Validator:
             name = self.string(f, f"output.export[{i}]").strip().lower()
             if name not in FORMATS:
                 raise self.error(f"output.export[{i}]", f"unknown format '{f}' (expected one "
-                                 f"of: {_join(FORMATS)})")
+                                 f"of: {join_names(FORMATS)})")
             formats.append(name)
         epoch = self.string(t.get("epoch", UNIX_EPOCH), "output.epoch")
         try:
@@ -357,7 +256,7 @@ class _Validator:
             n = t["noise_passes"]
             if not isinstance(n, int) or isinstance(n, bool):
                 raise self.error("processing.noise_passes",
-                                 f"expected an integer, got {_type_name(n)} ({_show(n)})")
+                                 f"expected an integer, got {type_name(n)} ({show_value(n)})")
             if not 0 <= n <= MAX_NOISE_PASSES:
                 raise self.error("processing.noise_passes",
                                  f"must be in [0, {MAX_NOISE_PASSES}], got {n}")
@@ -372,7 +271,7 @@ class _Validator:
             w = t["sage_husa_window"]
             if not isinstance(w, int) or isinstance(w, bool) or not 2 <= w <= 100_000:
                 raise self.error("processing.sage_husa_window",
-                                 f"expected an integer in [2, 100000], got {_show(w)}")
+                                 f"expected an integer in [2, 100000], got {show_value(w)}")
             kw["sage_husa_window"] = w
         if "maneuver_norm" in t:
             mn = self.positive(t["maneuver_norm"], "processing.maneuver_norm")
@@ -392,7 +291,7 @@ class _Validator:
             m = self.string(t["refraction"], "processing.refraction")
             if m not in REFRACTION_MODELS:
                 raise self.error("processing.refraction", f"unknown model {m!r} (expected one "
-                                 f"of: {_join(REFRACTION_MODELS)})")
+                                 f"of: {join_names(REFRACTION_MODELS)})")
             kw["refraction"] = m
         for name in ("refractivity", "optical_refractivity"):
             if name in t:
@@ -402,7 +301,7 @@ class _Validator:
             w = t["hampel_window"]
             if not isinstance(w, int) or isinstance(w, bool) or not 0 <= w <= 1000:
                 raise self.error("processing.hampel_window",
-                                 f"expected an integer in [0, 1000], got {_show(w)}")
+                                 f"expected an integer in [0, 1000], got {show_value(w)}")
             kw["hampel_window"] = w
         if "hampel_threshold" in t:
             kw["hampel_threshold"] = self.bounded(t["hampel_threshold"],
@@ -417,7 +316,7 @@ class _Validator:
             r = t["stukf_ratios"]
             if not isinstance(r, list) or len(r) != 3:
                 raise self.error("processing.stukf_ratios", "expected 3 numbers (position, "
-                                 f"velocity, acceleration), got {_show(r)}")
+                                 f"velocity, acceleration), got {show_value(r)}")
             kw["stukf_ratios"] = tuple(self.bounded(v, f"processing.stukf_ratios[{i}]",
                                                     *STUKF_RATIO_BOUNDS) for i, v in enumerate(r))
         if "imm_models" in t:
@@ -426,7 +325,7 @@ class _Validator:
             f = self.string(t["filter"], "processing.filter")
             if f not in FILTERS:
                 raise self.error("processing.filter",
-                                 f"unknown filter {f!r} (expected one of: {_join(FILTERS)})")
+                                 f"unknown filter {f!r} (expected one of: {join_names(FILTERS)})")
             kw["filter"] = f
         return ProcessingSettings(**kw)
 
@@ -435,12 +334,12 @@ class _Validator:
         names = ", ".join(f'"{m}"' for m in IMM_MODELS)
         if not isinstance(x, list) or not x or not all(isinstance(m, str) for m in x):
             raise self.error(key, f"expected a non-empty list of model names ({names}), got "
-                                  f"{_show(x)}")
+                                  f"{show_value(x)}")
         for m in x:
             if m not in IMM_MODELS:
                 raise self.error(key, f"unknown model {m!r} (expected one of: {names})")
         if len(set(x)) != len(x):
-            raise self.error(key, f"a model is listed twice: {_show(x)}")
+            raise self.error(key, f"a model is listed twice: {show_value(x)}")
         return tuple(x)
 
     def sensor(self, x: object, key: str, folder: Path) -> SensorSettings:
@@ -450,13 +349,13 @@ class _Validator:
         if kind not in SENSOR_KINDS:
             raise self.error(f"{key}.kind",
                              f"unknown sensor kind '{kind}' (expected one of: "
-                             f"{_join(SENSOR_KINDS)})")
+                             f"{join_names(SENSOR_KINDS)})")
         file = Path(self.string(self.required(t, "file", key), f"{key}.file")).expanduser()
         unit = self.string(t.get("angle_unit", "deg"), f"{key}.angle_unit")
         if unit not in ANGLE_UNITS:
             raise self.error(f"{key}.angle_unit",
                              f"unknown angle unit '{unit}' (expected one of: "
-                             f"{_join(ANGLE_UNITS)})")
+                             f"{join_names(ANGLE_UNITS)})")
         time_offset = self.bounded(t.get("time_offset", 0.0), f"{key}.time_offset",
                                    -MAX_ABS_TIME, MAX_ABS_TIME, "s")
         allow_disjoint = self.boolean(t.get("allow_disjoint_time", False),
@@ -466,7 +365,7 @@ class _Validator:
         lever_arm = (0.0, 0.0, 0.0)
         if kind in _SITED_KINDS:
             if ("site" in t) == ("platform" in t):
-                raise self.error(key, f"{_a(kind)} sensor needs exactly one of 'site' (fixed "
+                raise self.error(key, f"{a_kind(kind)} sensor needs exactly one of 'site' (fixed "
                                       "position) or 'platform' (id of an ins sensor)")
             if "site" in t:
                 site = self.geodetic(t["site"], f"{key}.site")
@@ -480,12 +379,12 @@ class _Validator:
         else:
             for name in ("site", "platform", "lever_arm"):
                 if name in t:
-                    raise self.error(f"{key}.{name}", f"not allowed for {_a(kind)} sensor")
+                    raise self.error(f"{key}.{name}", f"not allowed for {a_kind(kind)} sensor")
 
         target = None
         if "target" in t:
             if kind not in _TARGETED_KINDS:
-                raise self.error(f"{key}.target", f"not allowed for {_a(kind)} sensor (only "
+                raise self.error(f"{key}.target", f"not allowed for {a_kind(kind)} sensor (only "
                                                   f"{' and '.join(_TARGETED_KINDS)})")
             target = self.string(t["target"], f"{key}.target")
 
@@ -493,7 +392,7 @@ class _Validator:
         if kind == "mistram":
             stations = self.stations(self.required(t, "stations", key), f"{key}.stations")
         elif "stations" in t:
-            raise self.error(f"{key}.stations", f"not allowed for {_a(kind)} sensor "
+            raise self.error(f"{key}.stations", f"not allowed for {a_kind(kind)} sensor "
                                                 "(only mistram)")
 
         sigma = self.sigma(t.get("sigma", {}), f"{key}.sigma", kind, unit)
@@ -514,7 +413,7 @@ class _Validator:
         listed = ", ".join(f'"{n}"' for n in names) or "none for this sensor"
         if not isinstance(x, list) or not all(isinstance(n, str) for n in x):
             raise self.error(key, f"expected true, false or a list of terms ({listed}), got "
-                                  f"{_show(x)}")
+                                  f"{show_value(x)}")
         for n in x:
             if n not in names:
                 raise self.error(key, f"unknown or inapplicable term {n!r} (this sensor has: "
@@ -584,10 +483,10 @@ class _Validator:
                 ins = [k for k, v in kinds.items() if v == "ins"]
                 raise self.error(f"sensors[{i}].platform",
                                  f"'{s.platform}' names no sensor (ins sensors: "
-                                 f"{_join(ins) or 'none'})")
+                                 f"{join_names(ins) or 'none'})")
             if kinds[s.platform] != "ins":
-                raise self.error(f"sensors[{i}].platform",
-                                 f"'{s.platform}' is {_a(kinds[s.platform])} sensor, not an ins")
+                raise self.error(f"sensors[{i}].platform", f"'{s.platform}' is "
+                                 f"{a_kind(kinds[s.platform])} sensor, not an ins")
 
     def assign_targets(self, declared: tuple[TargetSettings, ...] | None,
                        sensors: list[SensorSettings]
@@ -602,14 +501,14 @@ class _Validator:
                 if s.target is not None and s.target not in ids:
                     raise self.error(f"sensors[{i}].target",
                                      f"'{s.target}' is not a declared target "
-                                     f"(declared: {_join(ids)})")
+                                     f"(declared: {join_names(ids)})")
         out = []
         for i, s in enumerate(sensors):
             if s.kind in _TARGETED_KINDS and s.target is None:
                 if len(declared) > 1:
                     raise self.error(f"sensors[{i}].target",
-                                     f"required for {_a(s.kind)} sensor when there are several "
-                                     f"targets ({_join([t.id for t in declared])})")
+                                     f"required for {a_kind(s.kind)} sensor when there are several "
+                                     f"targets ({join_names([t.id for t in declared])})")
                 s = dataclasses.replace(s, target=declared[0].id)
             out.append(s)
         return declared, out

@@ -1,0 +1,122 @@
+"""Checks of single config values: each returns the value or raises a one-line ConfigError.
+
+:class:`ValueChecks` holds the primitive checks (a table with known keys, a required key, a
+finite number, a bounded one, a probability, a boolean, a non-empty string, an array, unique
+ids); ``rangeproc.config`` builds the config's sections on them. Messages name the config file
+and the dotted key, e.g. ``flight.toml: sensors[2].sigma.range: must be > 0, got -1``.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from rangeproc.errors import ConfigError
+
+
+def is_number(x: object) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def type_name(x: object) -> str:
+    names = {bool: "a boolean", str: "a string", int: "an integer", float: "a number",
+             dict: "a table", list: "an array"}
+    return names.get(type(x), f"a {type(x).__name__}")
+
+
+def show_value(x: object) -> str:
+    """A TOML-looking rendering of a value for messages."""
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    return repr(x)
+
+
+def a_kind(kind: str) -> str:
+    """'a radar', 'an ins'."""
+    return f"an {kind}" if kind[:1] in "aeiou" else f"a {kind}"
+
+
+def join_names(names: Sequence[str]) -> str:
+    return ", ".join(names)
+
+
+class ValueChecks:
+    """The primitive checks, for one config file (its name starts every message)."""
+
+    def __init__(self, file_name: str) -> None:
+        self.file_name = file_name
+
+    def error(self, key: str, problem: str) -> ConfigError:
+        where = f"{key}: " if key else ""
+        return ConfigError(f"{self.file_name}: {where}{problem}")
+
+    # ---- primitive checks ----------------------------------------------------------------
+    def table(self, x: object, key: str, allowed: Sequence[str]) -> dict[str, Any]:
+        if not isinstance(x, dict):
+            raise self.error(key, f"expected a table, got {type_name(x)}")
+        for k in x:
+            if k not in allowed:
+                raise self.error(f"{key}.{k}" if key else k,
+                                 f"unknown key (expected one of: {join_names(allowed)})")
+        return x
+
+    def required(self, t: Mapping[str, Any], name: str, key: str) -> Any:
+        if name not in t:
+            raise self.error(f"{key}.{name}" if key else name, "missing required key")
+        return t[name]
+
+    def number(self, x: object, key: str) -> float:
+        if not is_number(x):
+            raise self.error(key, f"expected a number, got {type_name(x)} ({show_value(x)})")
+        value = float(x)  # type: ignore[arg-type]
+        if not math.isfinite(value):
+            raise self.error(key, f"must be a finite number, got {value}")
+        return value
+
+    def positive(self, x: object, key: str) -> float:
+        value = self.number(x, key)
+        if value <= 0.0:
+            raise self.error(key, f"must be > 0, got {value:g}")
+        return value
+
+    def probability(self, x: object, key: str, bounds: tuple[float, float]) -> float:
+        """A probability in the half-open ``[lo, hi)`` of ``bounds``."""
+        p = self.number(x, key)
+        lo, hi = bounds
+        if not lo <= p < hi:
+            raise self.error(key, f"must be in [{lo:g}, {hi:g}), got {p:g}")
+        return p
+
+    def bounded(self, x: object, key: str, lo: float, hi: float, unit: str = "") -> float:
+        """A number in [lo, hi] (plausibility bounds; the message gives them)."""
+        value = self.number(x, key)
+        if not lo <= value <= hi:
+            u = f" {unit}" if unit else ""
+            raise self.error(key, f"{value:g}{u} is outside the plausible range "
+                                  f"[{lo:g}, {hi:g}]{u}")
+        return value
+
+    def boolean(self, x: object, key: str) -> bool:
+        if not isinstance(x, bool):
+            raise self.error(key, f"expected true or false, got {type_name(x)} ({show_value(x)})")
+        return x
+
+    def string(self, x: object, key: str) -> str:
+        if not isinstance(x, str):
+            raise self.error(key, f"expected a string, got {type_name(x)} ({show_value(x)})")
+        if not x.strip():
+            raise self.error(key, "must not be empty")
+        return x
+
+    def array(self, x: object, key: str) -> list[Any]:
+        if not isinstance(x, list):
+            raise self.error(key, f"expected an array, got {type_name(x)}")
+        return x
+
+    def unique_ids(self, ids: Sequence[str], key_of: Callable[[int], str], what: str) -> None:
+        seen: dict[str, int] = {}
+        for i, ident in enumerate(ids):
+            if ident in seen:
+                raise self.error(key_of(i),
+                                 f"duplicate {what} id '{ident}' (also {key_of(seen[ident])})")
+            seen[ident] = i
