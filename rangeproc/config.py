@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from rangeproc.config_checks import ValueChecks, a_kind, join_names, show_value, type_name
-from rangeproc.errors import ConfigError, DataError
+from rangeproc.config_checks import (ValueChecks, a_kind, join_names, show_value, toml_syntax_error,
+                                     type_name)
+from rangeproc.errors import DataError
 from rangeproc.interchange import FORMATS
 from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch
 
@@ -148,17 +148,8 @@ def load_config(path: str | Path) -> Config:
     except UnicodeDecodeError as exc:
         raise v.error("", f"not UTF-8 text (byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise _toml_syntax_error(cfg_path.name, exc) from None
+        raise toml_syntax_error(cfg_path.name, exc) from None
     return v.config(doc, cfg_path)
-
-
-def _toml_syntax_error(name: str, exc: tomllib.TOMLDecodeError) -> ConfigError:
-    msg = " ".join(str(exc).split())
-    m = re.fullmatch(r"(.*) \(at line (\d+), column (\d+)\)", msg)
-    if m:
-        return ConfigError(
-            f"{name}: line {m.group(2)}, column {m.group(3)}: invalid TOML: {m.group(1)}")
-    return ConfigError(f"{name}: invalid TOML: {msg}")
 
 
 class _Validator(ValueChecks):

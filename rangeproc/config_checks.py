@@ -8,10 +8,21 @@ and the dotted key, e.g. ``flight.toml: sensors[2].sigma.range: must be > 0, got
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rangeproc.errors import ConfigError
+
+
+def toml_syntax_error(name: str, exc: Exception) -> ConfigError:
+    """The one-line ConfigError of a TOML syntax error in file ``name`` (line and column)."""
+    msg = " ".join(str(exc).split())
+    m = re.fullmatch(r"(.*) \(at line (\d+), column (\d+)\)", msg)
+    if m:
+        return ConfigError(
+            f"{name}: line {m.group(2)}, column {m.group(3)}: invalid TOML: {m.group(1)}")
+    return ConfigError(f"{name}: invalid TOML: {msg}")
 
 
 def is_number(x: object) -> bool:

@@ -335,12 +335,13 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
         exports: list[Path] = []
 
         def write_tables() -> None:     # written while the report's child draws its first figures
-            write_parquet(fused_table(tracks), stage / "fused.parquet")
+            table = fused_table(tracks)
+            write_parquet(table, stage / "fused.parquet")
             write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
             write_parquet(association, stage / "association.parquet")
             if cfg.output.export:       # [output] export: KML / CZML / CSV beside the table
                 exports.extend(export_run(stage, cfg.output.export, epoch=cfg.output.epoch,
-                                          title=f"rangeproc {cfg.path.stem}"))
+                                          title=f"rangeproc {cfg.path.stem}", table=table))
 
         with clock.stage("report", 4 + len(residuals) + 2 * (synthesis is not None)) as tick:
             figures = write_report(stage / "report", tracks, residuals,

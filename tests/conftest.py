@@ -54,6 +54,21 @@ class SampleRun:
     result: Result      # the CliRunner result
 
 
+def sensor_subset(config_text: str, ids) -> str:  # type: ignore[no-untyped-def]
+    """A config's text with only the [[sensors]] blocks of these ids (a faster run); every id
+    must be there."""
+    head, *blocks = config_text.split("[[sensors]]")
+    kept = [b for b in blocks if any(f'id = "{i}"\n' in b for i in ids)]
+    assert len(kept) == len(set(ids)), f"sensors {sorted(ids)} not all in the config"
+    return head + "".join("[[sensors]]" + b for b in kept)
+
+
+def keep_sensors(folder: Path, ids) -> None:  # type: ignore[no-untyped-def]
+    """Trim ``folder``'s scenario.toml to the [[sensors]] blocks with these ids."""
+    path = folder / SAMPLE_CONFIG
+    path.write_text(sensor_subset(path.read_text(), ids))
+
+
 @pytest.fixture(scope="session")
 def sample_copy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A pristine copy of sample_data shared by the session (read-only for tests)."""

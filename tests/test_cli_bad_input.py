@@ -26,6 +26,7 @@ import pytest
 
 import rangeproc.pipeline
 import rangeproc.report.figures
+from conftest import keep_sensors
 from rangeproc.errors import DataError, NumericalError, RangeprocError
 
 CONFIG = "scenario.toml"
@@ -112,15 +113,6 @@ def parquet_float_with(bad_row: int, bad: float) -> Callable[[pa.ChunkedArray], 
         values[bad_row - 1] = bad
         return pa.array(values, pa.float64(), from_pandas=False)
     return make
-
-
-def keep_sensors(folder: Path, ids: set[str]) -> None:
-    """Trim scenario.toml to the [[sensors]] blocks with these ids (a faster run)."""
-    path = folder / CONFIG
-    head, *blocks = path.read_text().split("[[sensors]]")
-    kept = [b for b in blocks if any(f'id = "{i}"\n' in b for i in ids)]
-    assert len(kept) == len(ids)
-    path.write_text(head + "".join("[[sensors]]" + b for b in kept))
 
 
 def listing(folder: Path) -> list[str]:

@@ -17,13 +17,18 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from rangeproc.campaign.summary import MOVE_SIGMAS
-from rangeproc.report.common import REJECT_COLOR, STYLE, new_figure, safe_name, save_figure
+from rangeproc.report.common import (REJECT_COLOR, STYLE, display_unit, new_figure, safe_name,
+                                     save_figure)
 
-#: Display (scale, unit) per component or term name; metres otherwise.
-UNITS = {"azimuth": (1e3, "mrad"), "elevation": (1e3, "mrad"), "mount_roll": (1e3, "mrad"),
-         "mount_pitch": (1e3, "mrad"), "mount_yaw": (1e3, "mrad"), "latency": (1e3, "ms"),
-         "range_rate": (1.0, "m/s"), "ve": (1.0, "m/s"), "vn": (1.0, "m/s"),
-         "vu": (1.0, "m/s")}
+#: SI unit of a noise component or calibration term by name (metres when not listed).
+SI_UNITS = {"azimuth": "rad", "elevation": "rad", "mount_roll": "rad", "mount_pitch": "rad",
+            "mount_yaw": "rad", "latency": "s", "range_rate": "m/s", "ve": "m/s",
+            "vn": "m/s", "vu": "m/s"}
+
+
+def shown_as(name: str) -> tuple[float, str]:
+    """(scale, unit) to show component or term ``name`` (``report.common.display_unit``)."""
+    return display_unit(SI_UNITS.get(name, "m"))
 
 
 def _names(rows: pd.DataFrame, prefix: str) -> list[str]:
@@ -53,7 +58,7 @@ def plot_sensor(rows: pd.DataFrame, sensor: str) -> Figure:
         return fig
     for k, (what, name) in enumerate(panels):
         ax = fig.add_subplot(nrows, cols, k + 1)
-        scale, unit = UNITS.get(name, (1.0, "m"))
+        scale, unit = shown_as(name)
         if what == "noise":
             ax.plot(x, rows[f"noise_{name}"] * scale, "o-", color="#1f77b4", ms=4,
                     label="estimated")

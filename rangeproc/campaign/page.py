@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from rangeproc.campaign.figures import UNITS
+from rangeproc.campaign.figures import shown_as
 from rangeproc.io.writers import atomic_path
 from rangeproc.report.page import STYLE, esc, figure_block, html_table
 
@@ -44,7 +44,7 @@ def assessment_table(table: pd.DataFrame) -> str:
         noise = []
         for c in [c for c in g.columns if c.startswith("noise_") and not c.endswith("_apriori")]:
             if g[c].notna().any():
-                scale, unit = UNITS.get(c[6:], (1.0, "m"))
+                scale, unit = shown_as(c[6:])
                 noise.append(f"{esc(c[6:])}: {np.nanmedian(g[c]) * scale:.4g} {unit}")
         moved = []
         for c in [c for c in g.columns if c.startswith("cal_") and c.endswith("_moved")]:

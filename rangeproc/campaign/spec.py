@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from rangeproc.config_checks import ValueChecks, toml_syntax_error
 from rangeproc.errors import ConfigError
 
 try:
@@ -66,51 +67,36 @@ def load_campaign(path: str | Path) -> Campaign:
 
 
 def _from_file(path: Path) -> Campaign:
-    name = path.name
+    check = ValueChecks(path.name)
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{name}: cannot read ({exc})") from None
+        raise check.error("", f"cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{name}: not valid TOML ({exc})") from None
-    for key in doc:
-        if key not in ("output", "sorties"):
-            raise ConfigError(f"{name}: {key}: unknown key (expected one of: output, sorties)")
-    output = doc.get("output", {})
-    if not isinstance(output, dict) or set(output) - {"dir"}:
-        raise ConfigError(f"{name}: output: expected a table with only 'dir'")
-    out = output.get("dir", f"{path.stem}_out")
-    if not isinstance(out, str) or not out.strip():
-        raise ConfigError(f"{name}: output.dir: expected a non-empty string")
+        raise toml_syntax_error(path.name, exc) from None
+    check.table(doc, "", ("output", "sorties"))
+    output = check.table(doc.get("output", {}), "output", ("dir",))
+    out = check.string(output.get("dir", f"{path.stem}_out"), "output.dir")
     items = doc.get("sorties")
     if not isinstance(items, list) or not items:
-        raise ConfigError(f"{name}: sorties: expected a non-empty array of tables "
-                          "([[sorties]] config = \"...\")")
+        raise check.error("sorties", "expected a non-empty array of tables "
+                                     "([[sorties]] config = \"...\")")
     sorties = []
     for i, item in enumerate(items):
         key = f"sorties[{i}]"
-        if not isinstance(item, dict) or set(item) - {"config", "id"}:
-            raise ConfigError(f"{name}: {key}: expected a table with 'config' and optional 'id'")
-        config = item.get("config")
-        if not isinstance(config, str) or not config.strip():
-            raise ConfigError(f"{name}: {key}.config: expected the path of a sortie config")
+        t = check.table(item, key, ("config", "id"))
+        config = check.string(check.required(t, "config", key), f"{key}.config")
         config_path = (path.parent / config).resolve()
         if not config_path.is_file():
-            raise ConfigError(f"{name}: {key}.config: {config_path} not found")
-        ident = item.get("id", config_path.stem)
-        if not isinstance(ident, str) or not ident.strip():
-            raise ConfigError(f"{name}: {key}.id: expected a non-empty string")
-        sorties.append(Sortie(ident, config_path))
+            raise check.error(f"{key}.config", f"{config_path} not found")
+        sorties.append(Sortie(check.string(t.get("id", config_path.stem), f"{key}.id"),
+                              config_path))
     return Campaign(path.resolve(), tuple(sorties), (path.parent / out).resolve())
 
 
 def _check_unique(campaign: Campaign) -> None:
-    seen: dict[str, int] = {}
-    for i, s in enumerate(campaign.sorties):
-        if s.id in seen:
-            raise ConfigError(f"{campaign.source.name}: sorties[{i}].id: duplicate sortie id "
-                              f"'{s.id}' (also sorties[{seen[s.id]}])")
-        seen[s.id] = i
+    ValueChecks(campaign.source.name).unique_ids([s.id for s in campaign.sorties],
+                                                 lambda i: f"sorties[{i}].id", "sortie")
     outputs: dict[Path, str] = {}
     for s in campaign.sorties:
         out = _output_dir(s.config)
@@ -122,12 +108,11 @@ def _check_unique(campaign: Campaign) -> None:
 
 
 def _output_dir(config: Path) -> Path | None:
-    """A sortie config's resolved ``[output].dir`` (None when the file does not parse: that
-    sortie then fails on its own when it runs)."""
+    """A sortie config's resolved ``[output].dir`` (``rangeproc.config``); None when the
+    config is unusable: that sortie then fails on its own when it runs."""
+    from rangeproc.config import load_config
+
     try:
-        doc = tomllib.loads(config.read_text(encoding="utf-8"))
-        out = doc.get("output", {}).get("dir", "out")
-        return (config.parent / Path(out).expanduser()).resolve() if isinstance(out, str) \
-            else None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, AttributeError):
+        return load_config(config).output.dir
+    except ConfigError:
         return None

@@ -13,9 +13,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from rangeproc.errors import DataError
-from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch, read_fused, to_utc
+from rangeproc.interchange.trajectories import (UNIX_EPOCH, object_trajectories, parse_epoch,
+                                                read_fused, to_utc)
 
 #: Export formats, in the order they are written.
 FORMATS = ("kml", "czml", "csv")
@@ -25,13 +27,15 @@ EXPORT_FILES = tuple(f"fused.{fmt}" for fmt in FORMATS)
 
 def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
                epoch: str | np.datetime64 = UNIX_EPOCH, interval_s: float = 0.0,
-               dest: Path | None = None, title: str | None = None) -> list[Path]:
+               dest: Path | None = None, title: str | None = None,
+               table: pd.DataFrame | None = None) -> list[Path]:
     """Write ``fused.<format>`` for each of ``formats`` into ``dest`` (default ``out_dir``).
 
     epoch: the UTC instant of time 0 of the range's time scale (ISO 8601 with an offset, or a
     ``datetime64``); interval_s: at most one epoch per this many seconds per object in KML
-    and CZML (0: every epoch; the CSV always holds every row). Returns the written paths.
-    Raises DataError (exit 2) naming the file or option at fault.
+    and CZML (0: every epoch; the CSV always holds every row); table: the fused table when the
+    caller has it (a run that has just written it), else ``OUT_DIR/fused.parquet`` is read.
+    Returns the written paths. Raises DataError (exit 2) naming the file or option at fault.
     """
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
@@ -42,7 +46,10 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
     origin = parse_epoch(epoch) if isinstance(epoch, str) else np.datetime64(epoch, "ns")
     out_dir = Path(out_dir)
     dest = Path(dest) if dest is not None else out_dir
-    table, objects = read_fused(out_dir, origin, interval_s)
+    if table is None:
+        table = read_fused(out_dir)
+    utc = to_utc(table["time"].to_numpy(), origin, str(out_dir / "fused.parquet"))
+    objects = object_trajectories(table, utc, interval_s)
     title = title or f"rangeproc {out_dir.resolve().name}"
     written = []
     for fmt in dict.fromkeys(formats):            # each once, in the order given
@@ -54,7 +61,5 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
             written.append(write_czml(objects, dest / "fused.czml", title))
         else:
             from rangeproc.interchange.table import write_csv
-            written.append(write_csv(table, to_utc(table["time"].to_numpy(), origin,
-                                                   str(out_dir / "fused.parquet")),
-                                     dest / "fused.csv"))
+            written.append(write_csv(table, utc, dest / "fused.csv"))
     return written

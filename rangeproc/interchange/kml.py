@@ -21,6 +21,7 @@ import simplekml
 
 from rangeproc.interchange.trajectories import ObjectTrajectory, iso_utc
 from rangeproc.io.writers import atomic_path
+from rangeproc.report.common import true_runs
 from rangeproc.report.objects import object_color
 
 #: Per-epoch values carried along each track (gx:SimpleArrayData): name -> display name.
@@ -59,7 +60,7 @@ def write_kml(objects: Sequence[ObjectTrajectory], path: Path, title: str) -> Pa
         track.style.iconstyle.color = color
         track.style.iconstyle.icon.href = \
             "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png"
-        for lo, hi in _runs(obj.bridged):
+        for lo, hi in zip(*true_runs(obj.bridged)):
             line = folder.newlinestring(name=f"{obj.id} bridged",
                                         altitudemode=simplekml.AltitudeMode.absolute,
                                         coords=list(zip(obj.lon[lo:hi].tolist(),
@@ -71,8 +72,3 @@ def write_kml(objects: Sequence[ObjectTrajectory], path: Path, title: str) -> Pa
         tmp.write_text(doc.kml(format=False), encoding="utf-8")
     return Path(path)
 
-
-def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) index pairs of the runs of True in ``flag`` (N,)."""
-    edges = np.diff(np.r_[0, flag.astype(np.int8), 0])
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))

@@ -82,14 +82,9 @@ def iso_utc(utc: np.ndarray) -> list[str]:
     return [s + "Z" for s in np.datetime_as_string(utc, unit="ms")]
 
 
-def read_fused(out_dir: Path, epoch: np.datetime64, interval_s: float = 0.0
-               ) -> tuple[pd.DataFrame, list[ObjectTrajectory]]:
-    """``OUT_DIR/fused.parquet`` as a table and per object (in the table's target order).
-
-    interval_s: keep one epoch per this many seconds per object (0: every epoch); an object's
-    first and last epochs are always kept. Raises DataError naming the file for a missing,
-    unreadable or incomplete table.
-    """
+def read_fused(out_dir: Path) -> pd.DataFrame:
+    """``OUT_DIR/fused.parquet``; DataError naming the file when it is missing, unreadable or
+    lacks a column every export needs."""
     path = Path(out_dir) / "fused.parquet"
     if not path.is_file():
         raise DataError(f"{path}: not found (run `rangeproc run` first)")
@@ -100,20 +95,28 @@ def read_fused(out_dir: Path, epoch: np.datetime64, interval_s: float = 0.0
     missing = [c for c in NEEDED if c not in table.columns]
     if missing:
         raise DataError(f"{path}: column '{missing[0]}' missing")
-    utc = to_utc(table["time"].to_numpy(), epoch, str(path))
+    return table
+
+
+def object_trajectories(table: pd.DataFrame, utc: np.ndarray, interval_s: float = 0.0
+                        ) -> list[ObjectTrajectory]:
+    """The fused ``table``'s objects (in its target order) with their rows' UTC times
+    ``utc`` (N,); interval_s: keep one epoch per this many seconds per object (0: every
+    epoch), each object's first and last epochs always kept."""
+    time = table["time"].to_numpy(float)
     objects = []
     for oid, rows in table.groupby("target_id", sort=False).indices.items():
-        rows = rows[np.argsort(table["time"].to_numpy()[rows], kind="stable")]
-        rows = rows[_thinned(table["time"].to_numpy()[rows], interval_s)]
+        rows = rows[np.argsort(time[rows], kind="stable")]
+        rows = rows[_thinned(time[rows], interval_s)]
         bridged = (table["bridged"].to_numpy(dtype=bool)[rows] if "bridged" in table.columns
                    else np.zeros(rows.size, dtype=bool))
         objects.append(ObjectTrajectory(
-            id=str(oid), time=table["time"].to_numpy(float)[rows], utc=utc[rows],
+            id=str(oid), time=time[rows], utc=utc[rows],
             lat=table["lat"].to_numpy(float)[rows], lon=table["lon"].to_numpy(float)[rows],
             height=table["height"].to_numpy(float)[rows],
             sigma_enu=table[["sigma_e", "sigma_n", "sigma_u"]].to_numpy(float)[rows],
             bridged=bridged))
-    return table, objects
+    return objects
 
 
 def _thinned(t: np.ndarray, interval_s: float) -> np.ndarray:

@@ -305,10 +305,18 @@ def break_gaps(t: np.ndarray, *ys: np.ndarray, factor: float = 3.0) -> tuple[np.
 
 
 def display_unit(unit: str) -> tuple[float, str]:
-    """(scale, label) to show an SI quantity: radians as mrad, everything else unchanged."""
-    table = {"rad": (1.0e3, "mrad"), "rad/s": (1.0e3, "mrad/s"), "m": (1.0, "m"),
-             "m/s": (1.0, "m/s"), "m/s^2": (1.0, "m/s²")}
+    """(scale, label) to show an SI quantity: radians as mrad, seconds (latencies) as ms,
+    everything else unchanged."""
+    table = {"rad": (1.0e3, "mrad"), "rad/s": (1.0e3, "mrad/s"), "s": (1.0e3, "ms"),
+             "m": (1.0, "m"), "m/s": (1.0, "m/s"), "m/s^2": (1.0, "m/s²")}
     return table.get(unit, (1.0, unit))
+
+
+def true_runs(flag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(start, stop) index arrays of the runs of True in ``flag`` (N,): run k is
+    ``flag[start[k]:stop[k]]`` (stop exclusive)."""
+    edge = np.diff(np.concatenate([[0], np.asarray(flag).astype(np.int8), [0]]))
+    return np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
 
 
 def n_sensors_colormap(n_max: int) -> tuple[ListedColormap, BoundaryNorm]:

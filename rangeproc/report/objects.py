@@ -27,7 +27,7 @@ from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
 from rangeproc.report.common import CYCLE, break_gaps, new_figure, stride_indices, t0_note, \
-    time_label
+    time_label, true_runs
 from rangeproc.report.timeline import RESOLUTION, _median_step, used_spans
 from rangeproc.report.trajectory import MAX_TRACK_POINTS, _draw_sites
 from rangeproc.results import TrackEstimate
@@ -153,11 +153,9 @@ def bridged_runs(track: TrackEstimate, limit: float = BRIDGED_GAP) -> np.ndarray
     """(B, 2) s: first and last epoch of each run of epochs with ``data_gap > limit``."""
     if track.data_gap is None or np.size(track.time) == 0:
         return np.zeros((0, 2))
-    b = np.asarray(track.data_gap, dtype=float) > limit
-    edge = np.diff(np.concatenate([[0], b.astype(np.int8), [0]]))
-    start, stop = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1) - 1
+    start, stop = true_runs(np.asarray(track.data_gap, dtype=float) > limit)
     t = np.asarray(track.time, dtype=float)
-    return np.column_stack([t[start], t[stop]])
+    return np.column_stack([t[start], t[stop - 1]])
 
 
 def joined_runs(runs: np.ndarray, join: float = BRIDGED_JOIN) -> np.ndarray:

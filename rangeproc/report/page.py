@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from rangeproc.io.writers import atomic_path
+from rangeproc.report.common import display_unit
 
 #: What each figure shows (by file name; residual figures by prefix).
 CAPTIONS = {
@@ -34,8 +35,6 @@ CAPTIONS = {
     "plan.png": "Every object in plan view in its own colour; clutter and unassigned plots grey.",
     "calibration.png": "Estimated biases, latency and mount angles with 1-sigma bars.",
 }
-#: Display scale and unit per SI unit.
-DISPLAY = {"rad": (1e3, "mrad"), "s": (1e3, "ms")}
 
 STYLE = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1200px;
@@ -65,7 +64,7 @@ def _shown(value: float | None, unit: str) -> str:
     """A value in its display unit ('0.473 mrad')."""
     if value is None:
         return "–"
-    scale, shown = DISPLAY.get(unit, (1.0, unit))
+    scale, shown = display_unit(unit)
     return f"{value * scale:.4g} {shown}"
 
 

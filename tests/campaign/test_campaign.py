@@ -19,6 +19,8 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from conftest import sensor_subset
+
 from rangeproc.campaign import load_campaign, run_campaign
 from rangeproc.cli import main
 from rangeproc.errors import ConfigError
@@ -31,13 +33,9 @@ FAST = ("R1", "G1")                  # a quick subset of the sample's sensors
 def sortie_config(folder: Path, name: str, out: str, sensors=FAST) -> Path:
     """A copy of the sample's scenario.toml in ``folder`` reading ../data, writing ``out``,
     with only ``sensors``."""
-    head, *blocks = (SAMPLE / "scenario.toml").read_text().split("[[sensors]]")
-    kept = [b for b in blocks if any(f'id = "{i}"\n' in b for i in sensors)]
-    text = (head + "".join("[[sensors]]" + b for b in kept))
-    text = text.replace('dir = "out"', f'dir = "../out/{out}"')
-    for b in kept:
-        file = b.split('file = "', 1)[1].split('"', 1)[0]
-        text = text.replace(f'file = "{file}"', f'file = "../data/{file}"')
+    text = sensor_subset((SAMPLE / "scenario.toml").read_text(), sensors)
+    text = text.replace('dir = "out"', f'dir = "../out/{out}"').replace('file = "',
+                                                                       'file = "../data/')
     path = folder / f"{name}.toml"
     path.write_text(text)
     return path

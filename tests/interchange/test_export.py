@@ -22,7 +22,8 @@ from click.testing import CliRunner
 from rangeproc.cli import main
 from rangeproc.errors import DataError
 from rangeproc.interchange import export_run
-from rangeproc.interchange.trajectories import parse_epoch, read_fused
+from rangeproc.interchange.trajectories import (object_trajectories, parse_epoch, read_fused,
+                                                to_utc)
 
 with warnings.catch_warnings():          # fastkml warns that lxml (pretty printing) is missing
     warnings.simplefilter("ignore")
@@ -57,6 +58,13 @@ def run_dir(tmp_path: Path) -> tuple[Path, pd.DataFrame]:
     table = fused_table()
     table.to_parquet(tmp_path / "fused.parquet", index=False)
     return tmp_path, table
+
+
+def objects_of(folder: Path, epoch: str, interval_s: float = 0.0):  # type: ignore[no-untyped-def]
+    """The exports' per-object trajectories of ``folder``'s fused.parquet."""
+    table = read_fused(folder)
+    return object_trajectories(table, to_utc(table["time"].to_numpy(), parse_epoch(epoch),
+                                             "fused.parquet"), interval_s)
 
 
 def utc_of(t: float) -> datetime:
@@ -137,7 +145,7 @@ def test_csv_reads_back_exactly_with_a_utc_column(run_dir) -> None:
 
 def test_interval_thins_kml_and_czml_keeping_each_object_s_ends(run_dir) -> None:
     folder, table = run_dir
-    _, objects = read_fused(folder, parse_epoch(EPOCH), interval_s=0.35)
+    objects = objects_of(folder, EPOCH, interval_s=0.35)
     t1 = objects[0].time
     assert t1[0] == table.time.iloc[0] and t1[-1] == table.time.iloc[11]
     # the first epoch of each 0.35 s slot from the first (0-0.35 s, 0.35-0.7 s, ...), and the
@@ -148,7 +156,7 @@ def test_interval_thins_kml_and_czml_keeping_each_object_s_ends(run_dir) -> None
 
 def test_unix_epoch_is_the_default(run_dir) -> None:
     folder, table = run_dir
-    _, objects = read_fused(folder, parse_epoch("1970-01-01T00:00:00Z"))
+    objects = objects_of(folder, "1970-01-01T00:00:00Z")
     assert str(objects[0].utc[0])[:23] == "1970-01-01T00:16:40.050"
 
 

@@ -8,6 +8,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from conftest import keep_sensors
+
 CONFIG = "scenario.toml"
 
 
@@ -17,14 +19,6 @@ def set_output(folder: Path, lines: str) -> None:
     text = path.read_text()
     assert "[output]\n" in text
     path.write_text(text.replace("[output]\n", "[output]\n" + lines, 1))
-
-
-def keep_sensors(folder: Path, ids: set[str]) -> None:
-    """Trim scenario.toml to the [[sensors]] blocks with these ids (a faster run)."""
-    path = folder / CONFIG
-    head, *blocks = path.read_text().split("[[sensors]]")
-    kept = [b for b in blocks if any(f'id = "{i}"\n' in b for i in ids)]
-    path.write_text(head + "".join("[[sensors]]" + b for b in kept))
 
 
 def test_run_writes_the_exports_with_its_outputs(scenario: Path, cli, explain) -> None:
