@@ -211,26 +211,24 @@ def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: b
     (a bias still in them): only values far from their sensor component's median are left
     out, at the stated sigmas."""
     w = np.zeros(r.shape)
-    for rows in groups:
-        Wg = np.zeros((len(rows), r.shape[1]))
-        Ug, Sg = r[rows] / base[rows], base[rows]
-        for c in np.flatnonzero(np.isfinite(Ug).any(axis=0)):
-            u, sc = Ug[:, c], Sg[:, c]
+    for rows in groups:                  # one component of one sensor at a time: (n,) copies
+        for c in range(r.shape[1]):
+            sc = base[rows, c]
+            u = r[rows, c] / sc
             have = np.isfinite(u) & (sc > 0)
-            if have.sum() < 3:
+            if np.count_nonzero(have) < 3:
                 continue
             if first:
                 med = np.median(u[have])
                 scale = max(robust_spread(u[have], max_samples=100_000), 1e-12)
                 keep = have & (np.abs(u - med) <= PRE_WILD * scale)
-                Wg[keep, c] = 1.0 / sc[keep] ** 2
+                w[rows[keep], c] = 1.0 / sc[keep] ** 2
                 continue
             f = max(robust_spread(u[have], max_samples=100_000), 0.2)
             un = np.where(have, np.abs(u) / f, np.inf)
             keep = un <= WILD
             huber = np.minimum(1.0, HUBER_K / np.maximum(un[keep], 1e-12))
-            Wg[keep, c] = huber / (f * sc[keep]) ** 2
-        w[rows] = Wg
+            w[rows[keep], c] = huber / (f * sc[keep]) ** 2
     return w
 
 
