@@ -21,12 +21,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from rangeproc.parallel import usable_cores
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE = ROOT / "sample_data"
@@ -49,17 +52,24 @@ def build(n: int) -> Path:
     return folder
 
 
-def serial_in_process(folder: Path) -> tuple[float, list[float]]:
+def cpu_seconds() -> float:
+    """CPU time (s) of this process and its finished children (the report's forked child)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def serial_in_process(folder: Path) -> tuple[float, list[float], float]:
+    """(wall s, per-sortie wall s, CPU s) of ``pipeline.run`` on every sortie in turn."""
     from rangeproc.pipeline import run
 
     run(folder / "flights" / "s01.toml")                     # warm: kernels loaded
     each = []
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_seconds()
     for cfg in sorted((folder / "flights").glob("*.toml")):
         t1 = time.perf_counter()
         run(cfg)
         each.append(time.perf_counter() - t1)
-    return time.perf_counter() - t0, each
+    return time.perf_counter() - t0, each, cpu_seconds() - c0
 
 
 def serial_processes(folder: Path) -> float:
@@ -106,9 +116,11 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     folder = build(a.sorties)
     print(f"campaign bench: {a.sorties} sample-sized sorties in {folder}", flush=True)
-    serial, each = serial_in_process(folder)
+    serial, each, serial_cpu = serial_in_process(folder)
+    cores = serial_cpu / serial
     print(f"serial, one process:          {serial:6.1f} s ({statistics.median(each):.2f} s "
-          "per sortie, median)", flush=True)
+          f"per sortie, median; {serial_cpu:.1f} CPU s = {cores:.2f} cores busy on average: "
+          "the report's two processes and the fuse's threads)", flush=True)
     loop = None if a.skip_process_loop else serial_processes(folder)
     if loop is not None:
         print(f"serial, a process per sortie: {loop:6.1f} s ({loop / a.sorties:.2f} s per "
@@ -130,12 +142,17 @@ def main(argv: list[str] | None = None) -> None:
     print(f"scaling: 1 -> 2 workers {one:.1f} -> {two:.1f} s ({one / two:.2f}x); "
           f"16 workers (16 cores) would need about {need16:.1f} s for these {a.sorties} "
           f"sorties ({waves} wave{'s' * (waves != 1)})")
+    bound = cores / usable_cores()
+    print(f"bound: the serial loop already keeps {cores:.2f} of {usable_cores()} cores busy, "
+          f"so {usable_cores()} workers on these cores can at best reach {bound:.2f}x its time "
+          "(the same CPU seconds spread over all cores)")
     verdict = "PASS" if ratio <= TARGET_RATIO else "FAIL"
     print(f"  2-worker campaign <= {TARGET_RATIO:g}x the serial time: {two:.1f} / {serial:.1f} "
           f"s = {ratio:.2f}x  {verdict}"
           + (f" (against the process-per-sortie loop: {two / loop:.2f}x)" if loop else ""))
     (ROOT / "bench" / "campaign.json").write_text(json.dumps({
         "sorties": a.sorties, "serial_in_process_s": serial, "serial_each_s": each,
+        "serial_cpu_s": serial_cpu, "serial_cores_busy": cores, "ratio_bound": bound,
         "serial_process_loop_s": loop, "campaign_1_worker_s": one,
         "campaign_2_workers_s": two, "campaign_1_each_s": one_each,
         "campaign_2_each_s": two_each, "task_overhead_s": per_task,

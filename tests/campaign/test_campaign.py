@@ -217,3 +217,21 @@ def test_moved_flags_a_calibration_beyond_three_combined_sigmas() -> None:
     # (3.18 > 3), 5.0 -> 5.2; R2 has no previous sortie
     assert moved_between_sorties(table, "cal_range", "cal_range_sigma").tolist() == [
         False, False, False, False, True, False]
+
+
+def test_local_workers_run_without_the_statistical_profiler():
+    """The local cluster's worker processes get ``LOCAL_WORKER_CONFIG`` (no 10 ms stack
+    sampling for a dashboard nobody serves)."""
+    import dask
+
+    from rangeproc.campaign.runner import _client
+
+    client, where = _client(None, 1, 1)
+    try:
+        seen = client.run(lambda: dask.config.get("distributed.worker.profile.enabled"))
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+    assert where.startswith("LocalCluster") and list(seen.values()) == [False]
+    assert dask.config.get("distributed.worker.profile.enabled")   # this process: unchanged
