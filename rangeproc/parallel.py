@@ -4,6 +4,8 @@
   and smoothers, segment scores): the kernels (``numba``, ``nogil=True``) release the GIL.
   Results come back in the order the jobs were given and do not depend on the thread count;
   the first job to raise stops the jobs that have not started and its exception propagates.
+* :func:`row_chunks`: contiguous row slices for a compiled row-by-row kernel run over them
+  with :func:`thread_map`.
 * :func:`shared_with_child`: this process and one forked child, for work that holds the GIL
   (the report's matplotlib figures).
 """
@@ -17,6 +19,8 @@ import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
+
+import numpy as np
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -50,6 +54,26 @@ def thread_map(fn: Callable[[T], R], items: Sequence[T],
             for future in futures.values():
                 future.cancel()
             raise
+
+
+#: Rows below which a row kernel is not split: starting a thread and joining the pieces cost
+#: about 0.1 ms, a row 0.1-1 µs.
+MIN_CHUNK_ROWS = 50_000
+
+
+def row_chunks(n_rows: int, parts: int | None = None) -> list[slice]:
+    """Contiguous slices covering ``range(n_rows)`` in order, for a row kernel run over them
+    side by side (:func:`thread_map`): ``parts`` of them (default one per usable core), fewer
+    when a slice would hold under :data:`MIN_CHUNK_ROWS` rows (one slice for short inputs).
+
+    A kernel whose rows are independent gives the same values for any split; one that sums
+    over rows should pass a fixed ``parts`` so that its rounding does not depend on the
+    machine's core count.
+    """
+    parts = usable_cores() if parts is None else parts
+    parts = max(1, min(parts, n_rows // MIN_CHUNK_ROWS))
+    edges = np.linspace(0, n_rows, parts + 1).round().astype(int)
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
 def shared_with_child(run_job: Callable[[int], None], n_jobs: int,

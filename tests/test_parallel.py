@@ -70,6 +70,17 @@ def _write_job(folder: Path):
     return run
 
 
+def test_row_chunks_cover_the_rows_in_order_and_leave_short_inputs_whole(monkeypatch):
+    assert parallel.row_chunks(parallel.MIN_CHUNK_ROWS * 2 - 1, parts=2) == [
+        slice(0, parallel.MIN_CHUNK_ROWS * 2 - 1)]
+    monkeypatch.setattr(parallel, "MIN_CHUNK_ROWS", 10)
+    for n, parts in ((10, 4), (101, 3), (1000, 7), (0, 2)):
+        chunks = parallel.row_chunks(n, parts=parts)
+        assert len(chunks) == max(1, min(parts, n // 10))
+        assert np.array_equal(np.concatenate([np.arange(n)[c] for c in chunks]), np.arange(n))
+        assert all(c.stop - c.start >= 10 for c in chunks) or len(chunks) == 1
+
+
 def test_shared_with_child_runs_every_job_exactly_once(tmp_path):
     done: list[int] = []
     shared_with_child(_write_job(tmp_path), 12, done.append)

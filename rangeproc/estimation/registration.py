@@ -35,6 +35,7 @@ from numba import njit
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from rangeproc.models.measurement import N_COMPONENTS, SPHERICAL, innovation, measure
+from rangeproc.parallel import row_chunks, thread_map
 
 #: Calibration slots of a sensor, in the order of the ``slots`` table (-1 = not estimated).
 SLOTS = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch", "mount_yaw")
@@ -105,12 +106,18 @@ def row_design(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.
     arow[3, LATENCY_SLOT] = -rate
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+#: Row chunks of :func:`normal_equations` (fixed, so that its sums' rounding does not depend
+#: on the machine's core count).
+NORMAL_CHUNKS = 2
+
+
 def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
                      t: np.ndarray, model: np.ndarray, z: np.ndarray, weight: np.ndarray,
                      s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, moving_row: np.ndarray,
                      Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,
-                     xs: np.ndarray, n_par: int):
+                     xs: np.ndarray, n_par: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                np.ndarray]:
     """Accumulate the measurement part of the normal equations.
 
     Args:
@@ -123,7 +130,29 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
     Returns:
         Nxx (G, 9, 9), Nxc (G, 9, p), Ncc (p, p), bx (G, 9), bc (p,), and the pre-fit
         residuals ``r`` (N, 6) (NaN where not measured).
+
+    Long inputs are summed in :data:`NORMAL_CHUNKS` row chunks side by side.
     """
+    r = np.full((t.shape[0], N_COMPONENTS), np.nan)
+    parts = thread_map(lambda k: _normal_rows(
+        meas_epoch[k], node[k], node_t, t[k], model[k], z[k], weight[k], s[k], sv[k], Qr[k],
+        moving_row[k], Qdot, sensor[k], slots, xs, n_par, r[k]),
+        row_chunks(t.shape[0], NORMAL_CHUNKS))
+    Nxx, Nxc, Ncc, bx, bc = parts[0]
+    for more in parts[1:]:
+        for total, part in zip((Nxx, Nxc, Ncc, bx, bc), more):
+            total += part
+    return Nxx, Nxc, Ncc, bx, bc, r
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _normal_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
+                 t: np.ndarray, model: np.ndarray, z: np.ndarray, weight: np.ndarray,
+                 s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, moving_row: np.ndarray,
+                 Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,
+                 xs: np.ndarray, n_par: int, r: np.ndarray):
+    """:func:`normal_equations` of the given rows: its sums, the residuals written into ``r``
+    (N, 6) (NaN-filled by the caller)."""
     G = node_t.shape[0]
     N = t.shape[0]
     Nxx = np.zeros((G, N_NODE, N_NODE))
@@ -131,7 +160,6 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
     Ncc = np.zeros((n_par, n_par))
     bx = np.zeros((G, N_NODE))
     bc = np.zeros(n_par)
-    r = np.full((N, N_COMPONENTS), np.nan)
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, xs.shape[1]))
     y = np.empty(N_COMPONENTS)
@@ -175,23 +203,39 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
         for a in range(N_NODE):
             for b in range(a):
                 Nxx[g, b, a] = Nxx[g, a, b]
-    return Nxx, Nxc, Ncc, bx, bc, r
+    return Nxx, Nxc, Ncc, bx, bc
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
 def postfit(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray, t: np.ndarray,
             model: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
             moving_row: np.ndarray, Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,
-            xs: np.ndarray, r: np.ndarray, dx: np.ndarray, c: np.ndarray):
+            xs: np.ndarray, r: np.ndarray, dx: np.ndarray, c: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
     """Post-fit residuals ``r - h F dx_g - a c`` (N, 6) and, per row, the rate of each
     component ``dh/dt`` (N, 4) at the linearisation track (for the latency correction).
 
     Arguments as :func:`normal_equations`; ``r`` (N, 6) its pre-fit residuals, ``dx`` (G, 9)
-    and ``c`` (p,) the solution.
+    and ``c`` (p,) the solution. Rows are independent: long inputs are computed in row
+    chunks side by side, with the same values.
     """
     N = t.shape[0]
     out = np.full((N, N_COMPONENTS), np.nan)
     rate = np.zeros((N, 4))
+    thread_map(lambda k: _postfit_rows(
+        meas_epoch[k], node[k], node_t, t[k], model[k], s[k], sv[k], Qr[k], moving_row[k],
+        Qdot, sensor[k], slots, xs, r[k], dx, c, out[k], rate[k]), row_chunks(N))
+    return out, rate
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _postfit_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray, t: np.ndarray,
+                  model: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
+                  moving_row: np.ndarray, Qdot: np.ndarray, sensor: np.ndarray,
+                  slots: np.ndarray, xs: np.ndarray, r: np.ndarray, dx: np.ndarray,
+                  c: np.ndarray, out: np.ndarray, rate: np.ndarray) -> None:
+    """:func:`postfit` of the given rows into ``out`` (N, 6; NaN-filled by the caller) and
+    ``rate`` (N, 4; zeros)."""
+    N = t.shape[0]
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, xs.shape[1]))
     hrow = np.empty((N_COMPONENTS, N_NODE))
@@ -214,7 +258,6 @@ def postfit(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray, t: np.
                 if q >= 0:
                     acc -= arow[k, j] * c[q]
             out[i, k] = acc
-    return out, rate
 
 
 def _order_blocks(M: np.ndarray) -> np.ndarray:

@@ -7,12 +7,12 @@ from numba import njit
 from rangeproc.estimation.kernels import N_OBSERVED
 from rangeproc.estimation.linalg import unpack
 from rangeproc.models.measurement import N_COMPONENTS, innovation, measure
+from rangeproc.parallel import row_chunks, thread_map
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
 def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                        s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, xs: np.ndarray,
-                       Ps: np.ndarray):
+                       Ps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Residuals ``z - h(x_s)`` and the variance of ``h`` explained by the state.
 
     Args:
@@ -23,11 +23,26 @@ def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
         res (N, 6): residuals (azimuth wrapped, NaN where not measured);
         hph (N, 6): diag(H P_s H^T), the part of the residual variance removed by the fit
         (E[res^2] = sigma^2 - hph for a consistent smoother).
+
+    Rows are independent: long inputs are computed in row chunks side by side
+    (``rangeproc.parallel.row_chunks``), with the same values.
     """
     N = meas_epoch.shape[0]
-    n = xs.shape[1]
     res = np.full((N, N_COMPONENTS), np.nan)
     hph = np.full((N, N_COMPONENTS), np.nan)
+    thread_map(lambda r: _residuals_into(meas_epoch[r], model[r], z[r], s[r], sv[r], Qr[r],
+                                         xs, Ps, res[r], hph[r]), row_chunks(N))
+    return res, hph
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _residuals_into(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
+                    s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, xs: np.ndarray,
+                    Ps: np.ndarray, res: np.ndarray, hph: np.ndarray) -> None:
+    """:func:`smoothed_residuals` of the given rows, written into ``res`` and ``hph`` (N, 6)
+    (filled with NaN by the caller)."""
+    N = meas_epoch.shape[0]
+    n = xs.shape[1]
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, n))
     P = np.empty((n, n))
@@ -50,4 +65,3 @@ def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                         for b in range(N_OBSERVED):
                             acc += ha * P[a, b] * H[c, b]
                 hph[i, c] = acc
-    return res, hph

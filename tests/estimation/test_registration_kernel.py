@@ -124,6 +124,48 @@ def _small_problem(rng):
     return t, truth, xs, z, s, sensor, meas_epoch, sig
 
 
+def test_row_kernels_split_into_chunks_give_the_values_of_one_piece(monkeypatch):
+    """normal_equations, postfit and smoothed_residuals run long inputs in row chunks on
+    threads: the same residuals exactly, the same sums to rounding."""
+    from rangeproc import parallel
+    from rangeproc.estimation.registration import postfit
+    from rangeproc.estimation.residuals import smoothed_residuals
+
+    rng = np.random.default_rng(11)
+    t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
+    n = len(sensor)
+    node_t = np.arange(0.0, 20.0, 1.0)
+    node = np.clip(np.round(t[meas_epoch]).astype(np.int64), 0, len(node_t) - 1)
+    slots = np.full((2, N_SLOTS), -1, dtype=np.int64)
+    slots[0, :4] = [0, 1, 2, 3]
+    slots[1, :3] = [4, 5, 6]
+    weight = np.where(np.isfinite(sig), 1.0 / np.where(np.isfinite(sig), sig, 1.0) ** 2, 0.0)
+    model, sv, Qr = np.full(n, SPHERICAL), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1))
+    head = (meas_epoch, node, node_t, t[meas_epoch], model)
+    geo = (s, sv, Qr, np.full(n, -1), np.zeros((1, 3, 3)), sensor, slots, xs)
+    Ps = np.tile(np.eye(9)[np.triu_indices(9)], (len(xs), 1)) * 0.5
+
+    def all_three():
+        ne = normal_equations(*head, z, weight, *geo, 7)
+        dx, c = rng_fixed.normal(size=(len(node_t), 9)), rng_fixed.normal(size=7) * 1e-3
+        return ne, postfit(*head, *geo, ne[5], dx, c), smoothed_residuals(
+            meas_epoch, model, z, s, sv, Qr, xs, Ps)
+
+    rng_fixed = np.random.default_rng(3)
+    whole = all_three()
+    monkeypatch.setattr(parallel, "MIN_CHUNK_ROWS", n // 5)
+    monkeypatch.setattr(parallel, "usable_cores", lambda: 3)
+    assert len(parallel.row_chunks(n)) == 3
+    rng_fixed = np.random.default_rng(3)
+    split = all_three()
+    for a, b in zip(whole[0][:5], split[0][:5]):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(a).max())
+    for a, b in [(whole[0][5], split[0][5]), *zip(whole[1], split[1]),
+                 *zip(whole[2], split[2])]:
+        np.testing.assert_array_equal(a, b)
+    assert np.isfinite(whole[2][0]).any() and np.isfinite(whole[1][0]).any()
+
+
 def test_schur_solution_equals_the_dense_least_squares():
     rng = np.random.default_rng(5)
     t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
