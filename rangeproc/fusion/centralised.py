@@ -30,6 +30,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
@@ -385,8 +386,9 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
-    first = run_pass(batch, epoch_t, meas_epoch, x0, P0, q, gate,
-                 replace(settings, imm_models=(), stf=()), x_lin)
+    first_pass = partial(run_pass, batch, epoch_t, meas_epoch, x0, P0, q, gate,
+                         replace(settings, imm_models=(), stf=()), x_lin)
+    first = first_pass()
     if settings.askf and rho is None:
         rho = estimate_norm(first.xs[grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
@@ -396,14 +398,15 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # the askf check refines the first pass once more, unconstrained; otherwise the first
     # pass's arrays (track, covariances, residuals: most of a span's memory) are let go as
     # soon as the refinement has moved on from them
-    again = [first] if rho is not None and settings.noise_passes > 0 else []
-    box = [first]
+    again = [(first, first_pass)] if rho is not None and settings.noise_passes > 0 else []
+    box = [(first, first_pass)]
     del first
 
-    def refine(box: list[PassResult], rho: float | None, tick=tick):
-        """The refinement passes from the pass in ``box`` (taken out of it), constrained to
-        ``rho`` when given."""
-        out, b, qq, noise, cal = box.pop(), batch, q, {}, None
+    def refine(box: list[tuple[PassResult, Callable[[], PassResult]]], rho: float | None,
+               tick=tick):
+        """The refinement passes from the pass in ``box`` (taken out of it, with the call
+        that redoes it), constrained to ``rho`` when given."""
+        (out, redo), b, qq, noise, cal = box.pop(), batch, q, {}, None
         q_used = q
         why = np.zeros(batch.z.shape, dtype=np.int8)
         for p in range(settings.noise_passes):
@@ -425,26 +428,34 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window,
                                          ceiling=max(settings.q_grid))
             log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
-            before, q_before = out, q_used
+            # the pass refined here is let go before the next runs (its covariances and
+            # residuals: 0.5 GB of the 2M-row sortie's peak); should the next fail, it is
+            # done again from its inputs (the same values), its residuals taken at the rows
+            # as corrected since
+            resets_before, q_before, redo_before = out.resets, q_used, redo
+            redo = partial(run_pass, b, epoch_t, meas_epoch, *start, qq, gate, settings,
+                           out.xs, rho or 0.0)
+            out = None
             try:
-                out = run_pass(b, epoch_t, meas_epoch, *start, qq, gate, settings, out.xs,
-                           rho or 0.0)
+                out = redo()
                 failed = ""
             except NumericalError as exc:       # the pass before stands (its track is sound)
                 failed = str(exc)
             q_used = qq
             tick(1, f"pass {p + 2}")
-            if failed or rho is None and out.resets > before.resets:   # it lost the object:
+            if failed or rho is None and out.resets > resets_before:   # it lost the object:
                 # keep the pass before (a constrained pass is judged by constraint_agrees)
                 log.warning("pass %d: %s; the pass it refines is kept", p + 2, failed or (
                     f"the divergence guard fired {out.resets} times against "
-                    f"{before.resets} in the pass it refines"))
-                out, q_used = before, q_before
+                    f"{resets_before} in the pass it refines"))
+                out = None
+                out = redo_before()
+                out = out._replace(res=corrected_residuals(
+                    b, range(len(b.sensor_ids)), out, meas_epoch))
+                q_used = q_before
                 if p + 1 < settings.noise_passes:
                     tick(settings.noise_passes - p - 1, "")
                 break
-            del before      # the refined-away pass's arrays go now, not after the next
-            #                 pass's registration (on the 2M-row sortie: 0.45 GB of peak)
         return out, q_used, noise, why, cal
 
     out, q, noise, why, cal = refine(box, rho)

@@ -1,0 +1,71 @@
+"""A refinement pass that fails (a numerical error, or the divergence guard firing more often)
+leaves the pass it refines as the result: that pass is let go while the next runs and done
+again from its inputs, so the kept track must be exactly the one first computed."""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from rangeproc.errors import NumericalError
+from rangeproc.fusion import centralised
+from rangeproc.fusion.batch import SensorRows, empty_rows, merge
+from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+from rangeproc.models.measurement import CARTESIAN
+
+
+def _gps_batch(seed: int):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 60.0, 0.25)
+    n = t.size
+    a = empty_rows(n, CARTESIAN)
+    truth = np.column_stack([100.0 * t + 0.5 * t * t, 50.0 * t, 3000.0 - 2.0 * t])
+    a["z"][:, :3] = truth + rng.normal(0.0, 3.0, (n, 3))
+    a["sigma"][:, :3] = 2.0                     # stated too small: the refinement moves it
+    rows = SensorRows(t=t, source_row=np.arange(n), station=np.full(n, -1),
+                      track=np.full(n, -1), **a)
+    return merge([(0, rows)], ("G1",))
+
+
+@pytest.mark.parametrize("fail_call, kept_call", [(2, 0), (3, 1)])
+@pytest.mark.parametrize("how", ["error", "resets"])
+def test_the_refined_pass_is_done_again_and_kept_when_its_refinement_fails(
+        monkeypatch, caplog, fail_call, kept_call, how):
+    calls = []
+    real = centralised.run_pass
+
+    def spy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        calls.append(out)
+        if len(calls) == fail_call:
+            if how == "error":
+                raise NumericalError("injected failure")
+            return out._replace(resets=out.resets + 3)
+        return out
+
+    monkeypatch.setattr(centralised, "run_pass", spy)
+    with caplog.at_level(logging.WARNING, logger="rangeproc.fusion.centralised"):
+        res = fuse_span(_gps_batch(3), 2.0, EstimatorSettings(noise_passes=2))
+    assert "the pass it refines is kept" in caplog.text
+    assert len(calls) == fail_call + 1                  # the kept pass was done once more
+    again, first = calls[-1], calls[kept_call]
+    np.testing.assert_array_equal(again.xs, first.xs)
+    np.testing.assert_array_equal(again.Ps, first.Ps)
+    np.testing.assert_array_equal(res.xs, first.xs)
+    np.testing.assert_array_equal(res.nis, first.nis)
+    np.testing.assert_array_equal(res.res, first.res)   # GPS rows: nothing corrected since
+
+
+def test_without_a_failure_each_pass_runs_once(monkeypatch):
+    calls = []
+    real = centralised.run_pass
+
+    def spy(*args, **kwargs):
+        calls.append(real(*args, **kwargs))
+        return calls[-1]
+
+    monkeypatch.setattr(centralised, "run_pass", spy)
+    res = fuse_span(_gps_batch(3), 2.0, EstimatorSettings(noise_passes=2))
+    assert len(calls) == 3
+    np.testing.assert_array_equal(res.xs, calls[-1].xs)
