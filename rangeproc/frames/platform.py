@@ -20,18 +20,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation, Slerp
 
 from rangeproc.errors import DataError
 from rangeproc.frames.attitude import (
     NED_TO_ENU,
     body_to_ned,
     clean_series,
-    interval_body_rates,
     locate,
     rates_at_samples,
 )
 from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.frames.rotation_kernels import euler_matrices, relative_rotvecs, slerp_matrices
 from rangeproc.io.logs import SensorLog
 
 __all__ = [
@@ -91,8 +90,9 @@ def platform_geometry(
       in time (adequate for 50-100 Hz INS: error ~ a dt^2 / 8, 0.1 mm at 1 m/s^2, 100 Hz).
     - Orientation: ``M_k = L_k^T @ NED_TO_ENU @ C_k`` at each INS sample (L_k =
       ``frame.local_rotation`` at the INS position, C_k = :func:`body_to_ned`), interpolated by
-      Slerp. At the samples this is exactly ``local_rotation^T @ NED_TO_ENU @ C_bn``; between
-      samples it also carries the (~1e-6 rad/s) turn of the local vertical along the track.
+      slerp (``frames.rotation_kernels``, compiled; as scipy's ``Slerp``). At the samples
+      this is exactly ``local_rotation^T @ NED_TO_ENU @ C_bn``; between samples it also
+      carries the (~1e-6 rad/s) turn of the local vertical along the track.
     - Sensor position: ``p_ins + M @ lever_arm``.
     - Sensor velocity: at each INS sample the INS velocity (ve, vn, vu: local ENU, rotated to
       range ENU by L_k^T) where all three are finite, else the second-order central difference
@@ -140,16 +140,17 @@ def platform_geometry(
 
     pos = frame.to_enu(lat, lon, hgt)  # (K, 3) INS point, range ENU
     local_to_range = np.swapaxes(frame.local_rotation(lat, lon), -1, -2)  # (K, 3, 3) L^T
-    m_rot = Rotation.from_matrix(local_to_range @ NED_TO_ENU) * body_to_ned(roll, pitch, yaw)
+    m_rot = (local_to_range @ NED_TO_ENU) @ euler_matrices(roll, pitch, yaw)   # (K, 3, 3)
+    turn = relative_rotvecs(m_rot)                 # (K-1, 3) rotvec(M_k^T M_k+1), body axes
 
     h = np.diff(t)
     v_fd = rates_at_samples(t, np.diff(pos, axis=0) / h[:, None], max_gap)
     v_ins = np.einsum("kij,kj->ki", local_to_range, vel_local)
     v_samp = np.where(np.isfinite(vel_local).all(axis=1)[:, None], v_ins, v_fd)
-    w_samp = rates_at_samples(t, interval_body_rates(t, m_rot), max_gap)
+    w_samp = rates_at_samples(t, turn / h[:, None], max_gap)   # interval_body_rates' w_k
 
     loc = locate(t, t_query, max_gap)
-    m_q = Slerp(t, m_rot)(loc.t_eval).as_matrix()  # (N, 3, 3) body FRD -> range ENU
+    m_q = slerp_matrices(m_rot, turn, loc.k, loc.frac)   # (N, 3, 3) body FRD -> range ENU
     w_q = _lerp(w_samp, loc.k, loc.frac)
     position = _lerp(pos, loc.k, loc.frac) + m_q @ lever
     velocity = _lerp(v_samp, loc.k, loc.frac) + np.einsum(
