@@ -275,52 +275,54 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     rows.clear()                                     # the object parts hold the data now
     with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
         fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
-    for tid, result in fused:
-        track = track_estimate(tid, result, frame, cfg.output.rate_hz,
-                               max_bridge=BRIDGE_FACTOR * settings.max_gap)
-        tracks.append(track)
-        for i in np.unique(result.batch.sensor):
-            i = int(i)
-            sid = sensor_ids[i]
-            r = sensor_residuals(tid, result, i, kinds[sid])
-            residuals.append(r)
-            ss = sensor_summary[sid]
-            sel = result.batch.sensor == i
-            used_rows = result.used[sel].any(axis=1)
-            measured_rows = result.dof[sel] > 0
-            ss["n_used"] += int(used_rows.sum())
-            ss["n_rejected"] += int((measured_rows & ~used_rows).sum())
-            ss["n_partly_rejected"] = int((used_rows & r.rejected.any(axis=1)).sum())
-            ss["n_components_rejected"] = {
-                name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
-            ss["n_no_platform_geometry"] = n_no_platform[sid]
-            ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
-            ss.setdefault("target", tid)
-            ss.setdefault("targets", []).append(tid)
-        for i, n in result.n_unstarted.items():
-            sensor_summary[sensor_ids[i]]["n_unstarted"] += n
-        t_used = result.batch.t[result.used.any(axis=1)]
-        target_summary[tid] = {
-            "t_start": float(track.time[0]) if len(track.time) else None,
-            "t_end": float(track.time[-1]) if len(track.time) else None,
-            "n_epochs": len(track.time),
-            "gaps": _gaps(t_used, 1.0),
-            "spans": [list(sp) for sp in result.spans],
-            "max_gap_s": settings.max_gap,
-            "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
-                                "p95": float(np.percentile(result.q, 95)),
-                                "max": float(np.max(result.q))},
-            "divergence_resets": result.n_resets,
-            "maneuver_norm": {"unit": "m/s^2", "given": settings.maneuver_norm,
-                              "imposed": result.maneuver_norm},
-            "max_sigma_position_m": float(np.sqrt(np.max(
-                np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
-    specs = settings.calibration
-    for i, sen in enumerate(cfg.sensors):
-        if sen.kind != "ins":
-            sensor_summary[sen.id]["calibration"] = calibration_summary(
-                sen, i, specs[i] if specs else None,
-                [c for _, result in fused for c in result.calibration])
+    with clock.stage("products", len(fused)) as tick:   # tracks, residuals, summaries
+        for tid, result in fused:
+            track = track_estimate(tid, result, frame, cfg.output.rate_hz,
+                                   max_bridge=BRIDGE_FACTOR * settings.max_gap)
+            tracks.append(track)
+            for i in np.unique(result.batch.sensor):
+                i = int(i)
+                sid = sensor_ids[i]
+                r = sensor_residuals(tid, result, i, kinds[sid])
+                residuals.append(r)
+                ss = sensor_summary[sid]
+                sel = result.batch.sensor == i
+                used_rows = result.used[sel].any(axis=1)
+                measured_rows = result.dof[sel] > 0
+                ss["n_used"] += int(used_rows.sum())
+                ss["n_rejected"] += int((measured_rows & ~used_rows).sum())
+                ss["n_partly_rejected"] = int((used_rows & r.rejected.any(axis=1)).sum())
+                ss["n_components_rejected"] = {
+                    name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
+                ss["n_no_platform_geometry"] = n_no_platform[sid]
+                ss["noise"], ss["bias"] = _noise_summary(cfg.sensors[i], i, result)
+                ss.setdefault("target", tid)
+                ss.setdefault("targets", []).append(tid)
+            for i, n in result.n_unstarted.items():
+                sensor_summary[sensor_ids[i]]["n_unstarted"] += n
+            t_used = result.batch.t[result.used.any(axis=1)]
+            target_summary[tid] = {
+                "t_start": float(track.time[0]) if len(track.time) else None,
+                "t_end": float(track.time[-1]) if len(track.time) else None,
+                "n_epochs": len(track.time),
+                "gaps": _gaps(t_used, 1.0),
+                "spans": [list(sp) for sp in result.spans],
+                "max_gap_s": settings.max_gap,
+                "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
+                                    "p95": float(np.percentile(result.q, 95)),
+                                    "max": float(np.max(result.q))},
+                "divergence_resets": result.n_resets,
+                "maneuver_norm": {"unit": "m/s^2", "given": settings.maneuver_norm,
+                                  "imposed": result.maneuver_norm},
+                "max_sigma_position_m": float(np.sqrt(np.max(np.diagonal(
+                    track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
+            tick(1, tid)
+        specs = settings.calibration
+        for i, sen in enumerate(cfg.sensors):
+            if sen.kind != "ins":
+                sensor_summary[sen.id]["calibration"] = calibration_summary(
+                    sen, i, specs[i] if specs else None,
+                    [c for _, result in fused for c in result.calibration])
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")
