@@ -40,7 +40,12 @@ from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF
 from rangeproc.estimation.imm import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
-from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, local_process_noise, start_process_noise
+from rangeproc.estimation.tuning import (
+    MAX_SEARCH_ROWS,
+    local_process_noise,
+    search_rows,
+    start_process_noise,
+)
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.lead_in import (
@@ -80,7 +85,8 @@ class EstimatorSettings:
     process_noise: white-jerk PSD q (m^2/s^5), held constant; None = estimate it: maximum
         likelihood over ``q_grid`` first, then local EM updates over ``q_window`` seconds.
     q_grid: candidate q values for the likelihood search; q_search_rows: at most this many
-        rows (evenly spread) in it.
+        rows (evenly spread) in it, or ``tuning.MIN_SEARCH_RATE_HZ`` per second of the span
+        when that is more.
     q_window: window (s) of the local process-noise estimate.
     reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
     method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
@@ -376,7 +382,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     else:
         q0, q = start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
                                     settings.reset_after, settings.reset_inflation,
-                                    max_rows=settings.q_search_rows)
+                                    max_rows=search_rows(float(epoch_t[-1] - epoch_t[0]),
+                                                         settings.q_search_rows))
         log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
                  float(np.median(q)))
     x_lin = np.empty((0, x0.shape[0]))
