@@ -307,7 +307,8 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     Xc = np.zeros((len(node_t), N_NODE, p))
     rate = None
     for it in range(IRLS_PASSES):
-        Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*args, batch.z, weight, *geo, p)
+        # (its pre-fit residuals, the sixth result, are not needed here: let go at once)
+        Nxx, Nxc, Ncc, bx, bc = normal_equations(*args, batch.z, weight, *geo, p)[:5]
         try:
             S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
         except np.linalg.LinAlgError:
@@ -331,6 +332,7 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
             dx = xb - Xc @ dc
             post, rate = postfit(*args, *geo, res, dx, dc)
             weight = _weights(groups, post, batch.sigma, False)
+            del post
     if rate is None:
         _, rate = postfit(*args, *geo, res, np.zeros((len(node_t), N_NODE)), np.zeros(p))
     node_cov = (Xc @ cov) @ Xc.transpose(0, 2, 1)
