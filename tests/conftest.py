@@ -54,6 +54,25 @@ class SampleRun:
     result: Result      # the CliRunner result
 
 
+def gps_line_batch(t, rng, *, noise: float = 2.0, sigma: float = 2.0,
+                   velocity=(100.0, 50.0, 0.0), accel=(0.0, 0.0, 0.0)):
+    """A one-sensor ("G1") MeasurementBatch of GPS position rows at times ``t`` (s) along
+    ``(0, 0, 3000) + velocity t + accel t^2 / 2`` (range ENU m), with N(0, noise^2) errors
+    and stated ``sigma`` (m)."""
+    import numpy as np
+
+    from rangeproc.fusion.batch import SensorRows, empty_rows, merge
+    from rangeproc.models.measurement import CARTESIAN
+
+    t = np.asarray(t, dtype=float)
+    rows = empty_rows(t.size, CARTESIAN)
+    truth = np.array([0.0, 0.0, 3000.0]) + np.outer(t, velocity) + 0.5 * np.outer(t * t, accel)
+    rows["z"][:, :3] = truth + rng.normal(0.0, noise, (t.size, 3))
+    rows["sigma"][:, :3] = sigma
+    return merge([(0, SensorRows(t=t, source_row=np.arange(t.size), station=np.full(t.size, -1),
+                                 track=np.full(t.size, -1), **rows))], ("G1",))
+
+
 def sensor_subset(config_text: str, ids) -> str:  # type: ignore[no-untyped-def]
     """A config's text with only the [[sensors]] blocks of these ids (a faster run); every id
     must be there."""

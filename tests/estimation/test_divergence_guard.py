@@ -6,8 +6,10 @@ import numpy as np
 from rangeproc.estimation.divergence import MAX_RESET_INFLATION
 from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.fusion.batch import SensorRows, empty_rows, merge
+from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN
+
+from conftest import gps_line_batch
 
 
 def test_thousands_of_rejected_rows_at_one_epoch_reset_once_and_smooth() -> None:
@@ -110,14 +112,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
     import rangeproc.fusion.centralised as centralised
     from rangeproc.errors import NumericalError
 
-    rng = np.random.default_rng(7)
-    t = np.arange(0.0, 60.0, 0.5)
-    rows = empty_rows(t.size, CARTESIAN)
-    rows["z"][:, :3] = np.column_stack([100.0 * t, 50.0 * t, 3000.0 + 0.0 * t]) \
-        + rng.normal(0.0, 2.0, (t.size, 3))
-    rows["sigma"][:, :3] = 2.0
-    batch = merge([(0, SensorRows(t=t, source_row=np.arange(t.size), station=np.full(t.size, -1),
-                                  track=np.full(t.size, -1), **rows))], ("G1",))
+    batch = gps_line_batch(np.arange(0.0, 60.0, 0.5), np.random.default_rng(7))
     settings = centralised.EstimatorSettings(noise_passes=2)
     calls = {"n": 0}
     real = centralised.run_pass

@@ -124,6 +124,15 @@ def _small_problem(rng):
     return t, truth, xs, z, s, sensor, meas_epoch, sig
 
 
+def _nodes_and_weights(t, meas_epoch, sig):
+    """(node_t, node, weight) of the small problem: 1 s nodes, 1/sigma^2 weights (0 = not
+    measured)."""
+    node_t = np.arange(0.0, 20.0, 1.0)
+    node = np.clip(np.round(t[meas_epoch]).astype(np.int64), 0, len(node_t) - 1)
+    weight = np.where(np.isfinite(sig), 1.0 / np.where(np.isfinite(sig), sig, 1.0) ** 2, 0.0)
+    return node_t, node, weight
+
+
 def test_row_kernels_split_into_chunks_give_the_values_of_one_piece(monkeypatch):
     """normal_equations, postfit and smoothed_residuals run long inputs in row chunks on
     threads: the same residuals exactly, the same sums to rounding."""
@@ -134,12 +143,10 @@ def test_row_kernels_split_into_chunks_give_the_values_of_one_piece(monkeypatch)
     rng = np.random.default_rng(11)
     t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
     n = len(sensor)
-    node_t = np.arange(0.0, 20.0, 1.0)
-    node = np.clip(np.round(t[meas_epoch]).astype(np.int64), 0, len(node_t) - 1)
+    node_t, node, weight = _nodes_and_weights(t, meas_epoch, sig)
     slots = np.full((2, N_SLOTS), -1, dtype=np.int64)
     slots[0, :4] = [0, 1, 2, 3]
     slots[1, :3] = [4, 5, 6]
-    weight = np.where(np.isfinite(sig), 1.0 / np.where(np.isfinite(sig), sig, 1.0) ** 2, 0.0)
     model, sv, Qr = np.full(n, SPHERICAL), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1))
     head = (meas_epoch, node, node_t, t[meas_epoch], model)
     geo = (s, sv, Qr, np.full(n, -1), np.zeros((1, 3, 3)), sensor, slots, xs)
@@ -170,12 +177,10 @@ def test_schur_solution_equals_the_dense_least_squares():
     rng = np.random.default_rng(5)
     t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
     n = len(sensor)
-    node_t = np.arange(0.0, 20.0, 1.0)
-    node = np.clip(np.round(t[meas_epoch]).astype(np.int64), 0, len(node_t) - 1)
+    node_t, node, weight = _nodes_and_weights(t, meas_epoch, sig)
     slots = np.full((2, N_SLOTS), -1, dtype=np.int64)
     slots[0, :3] = [0, 1, 2]
     slots[1, :3] = [3, 4, 5]
-    weight = np.where(np.isfinite(sig), 1.0 / np.where(np.isfinite(sig), sig, 1.0) ** 2, 0.0)
     args = (meas_epoch, node, node_t, t[meas_epoch], np.full(n, SPHERICAL), z, weight, s,
             np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.full(n, -1),
             np.zeros((1, 3, 3)), sensor, slots, xs, 6)

@@ -7,9 +7,9 @@ import numpy as np
 
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, MIN_SEARCH_RATE_HZ, search_rows
 from rangeproc.fusion import centralised
-from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
-from rangeproc.models.measurement import CARTESIAN
+
+from conftest import gps_line_batch
 
 
 def test_search_rows_is_the_cap_or_the_rate_floor_whichever_is_more():
@@ -28,13 +28,7 @@ def test_fuse_span_searches_over_the_floored_row_count(monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(centralised, "start_process_noise", spy)
-    rng = np.random.default_rng(2)
     t = np.arange(0.0, 900.0, 0.5)
-    a = empty_rows(t.size, CARTESIAN)
-    a["z"][:, :3] = np.column_stack([80.0 * t, 20.0 * t, 2000.0 + 0 * t]) \
-        + rng.normal(0.0, 2.0, (t.size, 3))
-    a["sigma"][:, :3] = 2.0
-    rows = SensorRows(t=t, source_row=np.arange(t.size), station=np.full(t.size, -1),
-                      track=np.full(t.size, -1), **a)
-    fuse_span(merge([(0, rows)], ("G1",)), 1.0, EstimatorSettings(noise_passes=0))
+    fuse_span(gps_line_batch(t, np.random.default_rng(2)), 1.0,
+              EstimatorSettings(noise_passes=0))
     assert seen["max_rows"] == search_rows(t[-1] - t[0]) == int(MIN_SEARCH_RATE_HZ * 899.5)

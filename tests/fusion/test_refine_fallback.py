@@ -10,22 +10,16 @@ import pytest
 
 from rangeproc.errors import NumericalError
 from rangeproc.fusion import centralised
-from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
-from rangeproc.models.measurement import CARTESIAN
+
+from conftest import gps_line_batch
 
 
 def _gps_batch(seed: int):
-    rng = np.random.default_rng(seed)
-    t = np.arange(0.0, 60.0, 0.25)
-    n = t.size
-    a = empty_rows(n, CARTESIAN)
-    truth = np.column_stack([100.0 * t + 0.5 * t * t, 50.0 * t, 3000.0 - 2.0 * t])
-    a["z"][:, :3] = truth + rng.normal(0.0, 3.0, (n, 3))
-    a["sigma"][:, :3] = 2.0                     # stated too small: the refinement moves it
-    rows = SensorRows(t=t, source_row=np.arange(n), station=np.full(n, -1),
-                      track=np.full(n, -1), **a)
-    return merge([(0, rows)], ("G1",))
+    """A minute of 4 Hz GPS rows on an accelerating line, their sigma stated too small (the
+    refinement moves it)."""
+    return gps_line_batch(np.arange(0.0, 60.0, 0.25), np.random.default_rng(seed), noise=3.0,
+                          velocity=(100.0, 50.0, -2.0), accel=(1.0, 0.0, 0.0))
 
 
 @pytest.mark.parametrize("fail_call, kept_call", [(2, 0), (3, 1)])
