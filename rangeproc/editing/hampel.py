@@ -90,6 +90,35 @@ def _median(buf: np.ndarray, n: int) -> float:
     return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
 
 
+@njit(cache=True, inline="always")
+def _median_of_sorted(buf: np.ndarray, n: int) -> float:
+    """Median of the ascending ``buf[:n]`` (as :func:`_median` gives it)."""
+    h = n // 2
+    return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
+
+
+@njit(cache=True, inline="always")
+def _sorted_insert(buf: np.ndarray, n: int, v: float) -> int:
+    """Insert ``v`` into the ascending ``buf[:n]``; returns the new length."""
+    j = n - 1
+    while j >= 0 and buf[j] > v:
+        buf[j + 1] = buf[j]
+        j -= 1
+    buf[j + 1] = v
+    return n + 1
+
+
+@njit(cache=True, inline="always")
+def _sorted_remove(buf: np.ndarray, n: int, v: float) -> int:
+    """Remove one element equal to ``v`` from the ascending ``buf[:n]``; the new length."""
+    j = 0
+    while j < n - 1 and buf[j] != v:
+        j += 1
+    for q in range(j, n - 1):
+        buf[q] = buf[q + 1]
+    return n - 1
+
+
 @njit(cache=True, nogil=True)
 def hampel_flags(t: np.ndarray, x: np.ndarray, half_width: int, threshold: float,
                  floor: float) -> np.ndarray:
@@ -108,17 +137,32 @@ def hampel_flags(t: np.ndarray, x: np.ndarray, half_width: int, threshold: float
     if n < w:
         return out
     step = max(1, half_width // 2)
+    # the window's slopes over ``step`` samples, (x[j+step] - x[j]) / dt for j in
+    # [lo, lo + w - step) where dt > 0, kept sorted as the window slides (one out, one in)
+    n_slopes = n - step
+    slope = np.empty(n_slopes)
+    usable = np.empty(n_slopes, dtype=np.bool_)
+    for j in range(n_slopes):
+        dt = t[j + step] - t[j]
+        usable[j] = dt > 0.0
+        slope[j] = (x[j + step] - x[j]) / dt if usable[j] else 0.0
     slopes = np.empty(w)
     vals = np.empty(w)
+    m = 0
+    window_lo = -1
     for i in range(n):
         lo = min(max(i - half_width, 0), n - w)
-        m = 0
-        for j in range(lo, lo + w - step):
-            dt = t[j + step] - t[j]
-            if dt > 0.0:
-                slopes[m] = (x[j + step] - x[j]) / dt
-                m += 1
-        v = _median(slopes, m) if m > 0 else 0.0
+        if window_lo < 0:
+            for j in range(lo, lo + w - step):
+                if usable[j]:
+                    m = _sorted_insert(slopes, m, slope[j])
+        elif lo != window_lo:                          # lo moves by one: j = window_lo out
+            if usable[window_lo]:
+                m = _sorted_remove(slopes, m, slope[window_lo])
+            if usable[lo + w - step - 1]:
+                m = _sorted_insert(slopes, m, slope[lo + w - step - 1])
+        window_lo = lo
+        v = _median_of_sorted(slopes, m) if m > 0 else 0.0
         for j in range(w):
             vals[j] = x[lo + j] - v * (t[lo + j] - t[i])
         centre = _median(vals, w)

@@ -104,3 +104,55 @@ def test_a_noise_burst_is_left_to_the_smoother() -> None:
     x = 20_000.0 - 200.0 * t + noise
     x[2000] += 400.0                                 # a wild value outside the burst
     assert np.flatnonzero(series_flags(t, x)).tolist() == [2000]
+
+
+def _flags_by_sorting_every_window(t, x, half_width, threshold, floor):
+    """The Hampel identifier written directly (each window's slopes and values sorted anew),
+    the reference for the kernel's sliding sorted window of slopes."""
+    from rangeproc.editing.hampel import BURST_RATIO, QUARTILE_TO_SIGMA
+    from rangeproc.editing.noise import MAD_TO_SIGMA
+
+    n, w = len(x), 2 * half_width + 1
+    out = np.zeros(n, dtype=bool)
+    if n < w:
+        return out
+    step = max(1, half_width // 2)
+
+    def median(a):
+        a = np.sort(a)
+        h = len(a) // 2
+        return a[h] if len(a) % 2 else 0.5 * (a[h - 1] + a[h])
+
+    for i in range(n):
+        lo = min(max(i - half_width, 0), n - w)
+        j = np.arange(lo, lo + w - step)
+        dt = t[j + step] - t[j]
+        ok = dt > 0.0
+        v = median((x[j + step][ok] - x[j][ok]) / dt[ok]) if ok.any() else 0.0
+        vals = x[lo:lo + w] - v * (t[lo:lo + w] - t[i])
+        centre = median(vals)
+        if abs(x[i] - centre) <= threshold * floor:
+            continue
+        dev = np.sort(np.abs(vals - centre))
+        spread = MAD_TO_SIGMA * median(dev)
+        quiet = QUARTILE_TO_SIGMA * dev[(w - 1) // 4] <= BURST_RATIO * floor
+        out[i] = quiet and abs(x[i] - centre) > threshold * max(spread, floor)
+    return out
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_sliding_window_kernel_flags_what_sorting_every_window_flags(seed):
+    """Repeated times (dt = 0 slopes left out), tied (quantised) values, wild points, a ramp
+    and a step: the same flags as the direct definition, row by row."""
+    rng = np.random.default_rng(seed)
+    n = 3000
+    t = np.cumsum(rng.choice([0.0, 0.01, 0.02, 0.05], n, p=[0.05, 0.6, 0.3, 0.05]))
+    x = 3.0 * t + np.round(rng.normal(0.0, 1.0, n), 1)          # ties from the rounding
+    x[n // 2:] += 40.0                                          # a step
+    wild = rng.choice(n, 60, replace=False)
+    x[wild] += rng.choice([-1, 1], 60) * rng.uniform(8.0, 50.0, 60)
+    for k in (3, 7):
+        got = hampel_flags(t, x, k, 6.0, 0.5)
+        ref = _flags_by_sorting_every_window(t, x, k, 6.0, 0.5)
+        np.testing.assert_array_equal(got, ref)
+        assert got.sum() > 20
