@@ -35,7 +35,6 @@ __all__ = [
     "body_to_ned",
     "clean_series",
     "interpolate_attitude",
-    "interval_body_rates",
     "locate",
     "rates_at_samples",
 ]
@@ -165,16 +164,6 @@ def rates_at_samples(t: np.ndarray, slopes: np.ndarray, max_gap: float) -> np.nd
     central = (h_right * s_left + h_left * s_right) / w_sum
     one_sided = np.where(h_left > 0.0, s_left, np.where(h_right > 0.0, s_right, 0.0))
     return np.where(both, central, one_sided)
-
-
-def interval_body_rates(t: np.ndarray, rot: Rotation) -> np.ndarray:
-    """(K-1, 3) constant body-frame angular velocity (rad/s) of the slerp on each interval.
-
-    On interval k, Slerp gives ``R(t) = R_k exp(s [d_k]x)`` with ``d_k = rotvec(R_k^-1 R_k+1)``
-    and s = (t - t_k)/h_k, hence ``dR/dt = R(t) [w_k]x`` with ``w_k = d_k / h_k`` (body axes).
-    """
-    d = (rot[:-1].inv() * rot[1:]).as_rotvec()
-    return d / np.diff(t)[:, None]
 
 
 def _check_max_gap(max_gap: float) -> float:

@@ -147,7 +147,9 @@ def platform_geometry(
     v_fd = rates_at_samples(t, np.diff(pos, axis=0) / h[:, None], max_gap)
     v_ins = np.einsum("kij,kj->ki", local_to_range, vel_local)
     v_samp = np.where(np.isfinite(vel_local).all(axis=1)[:, None], v_ins, v_fd)
-    w_samp = rates_at_samples(t, turn / h[:, None], max_gap)   # interval_body_rates' w_k
+    # on interval k the slerp is R_k exp(s [d_k]x), s = (t - t_k) / h_k: dR/dt = R [w_k]x
+    # with the body rate w_k = d_k / h_k; at the samples, the gap-aware central difference
+    w_samp = rates_at_samples(t, turn / h[:, None], max_gap)
 
     loc = locate(t, t_query, max_gap)
     m_q = slerp_matrices(m_rot, turn, loc.k, loc.frac)   # (N, 3, 3) body FRD -> range ENU
