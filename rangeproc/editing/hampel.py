@@ -77,22 +77,8 @@ REASON = "pre-edit"
 
 
 @njit(cache=True, inline="always")
-def _median(buf: np.ndarray, n: int) -> float:
-    """Median of ``buf[:n]`` (sorted in place; ``n`` small: insertion sort)."""
-    for i in range(1, n):
-        v = buf[i]
-        j = i - 1
-        while j >= 0 and buf[j] > v:
-            buf[j + 1] = buf[j]
-            j -= 1
-        buf[j + 1] = v
-    h = n // 2
-    return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
-
-
-@njit(cache=True, inline="always")
 def _median_of_sorted(buf: np.ndarray, n: int) -> float:
-    """Median of the ascending ``buf[:n]`` (as :func:`_median` gives it)."""
+    """Median of the ascending ``buf[:n]``."""
     h = n // 2
     return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
 
@@ -106,6 +92,14 @@ def _sorted_insert(buf: np.ndarray, n: int, v: float) -> int:
         j -= 1
     buf[j + 1] = v
     return n + 1
+
+
+@njit(cache=True, inline="always")
+def _median(buf: np.ndarray, n: int) -> float:
+    """Median of ``buf[:n]`` (sorted in place; ``n`` small: insertion sort)."""
+    for i in range(1, n):
+        _sorted_insert(buf, i, buf[i])
+    return _median_of_sorted(buf, n)
 
 
 @njit(cache=True, inline="always")
