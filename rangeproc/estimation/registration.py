@@ -115,9 +115,9 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
                      t: np.ndarray, model: np.ndarray, z: np.ndarray, weight: np.ndarray,
                      s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, moving_row: np.ndarray,
                      Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,
-                     xs: np.ndarray, n_par: int
+                     xs: np.ndarray, n_par: int, *, residuals: bool = True
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                np.ndarray]:
+                                np.ndarray | None]:
     """Accumulate the measurement part of the normal equations.
 
     Args:
@@ -129,20 +129,21 @@ def normal_equations(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarra
 
     Returns:
         Nxx (G, 9, 9), Nxc (G, 9, p), Ncc (p, p), bx (G, 9), bc (p,), and the pre-fit
-        residuals ``r`` (N, 6) (NaN where not measured).
+        residuals ``r`` (N, 6) (NaN where not measured; None with ``residuals=False``,
+        which neither allocates nor writes them).
 
     Long inputs are summed in :data:`NORMAL_CHUNKS` row chunks side by side.
     """
-    r = np.full((t.shape[0], N_COMPONENTS), np.nan)
+    r = np.full((t.shape[0] if residuals else 0, N_COMPONENTS), np.nan)
     parts = thread_map(lambda k: _normal_rows(
         meas_epoch[k], node[k], node_t, t[k], model[k], z[k], weight[k], s[k], sv[k], Qr[k],
-        moving_row[k], Qdot, sensor[k], slots, xs, n_par, r[k]),
+        moving_row[k], Qdot, sensor[k], slots, xs, n_par, r[k] if residuals else r),
         row_chunks(t.shape[0], NORMAL_CHUNKS))
     Nxx, Nxc, Ncc, bx, bc = parts[0]
     for more in parts[1:]:
         for total, part in zip((Nxx, Nxc, Ncc, bx, bc), more):
             total += part
-    return Nxx, Nxc, Ncc, bx, bc, r
+    return Nxx, Nxc, Ncc, bx, bc, r if residuals else None
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -152,7 +153,7 @@ def _normal_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
                  Qdot: np.ndarray, sensor: np.ndarray, slots: np.ndarray,
                  xs: np.ndarray, n_par: int, r: np.ndarray):
     """:func:`normal_equations` of the given rows: its sums, the residuals written into ``r``
-    (N, 6) (NaN-filled by the caller)."""
+    (N, 6; NaN-filled by the caller), or not at all when ``r`` has no rows."""
     G = node_t.shape[0]
     N = t.shape[0]
     Nxx = np.zeros((G, N_NODE, N_NODE))
@@ -160,6 +161,7 @@ def _normal_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
     Ncc = np.zeros((n_par, n_par))
     bx = np.zeros((G, N_NODE))
     bc = np.zeros(n_par)
+    keep_r = r.shape[0] > 0
     h = np.empty(N_COMPONENTS)
     H = np.empty((N_COMPONENTS, xs.shape[1]))
     y = np.empty(N_COMPONENTS)
@@ -176,7 +178,8 @@ def _normal_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray,
         for c in range(N_COMPONENTS):
             if np.isnan(y[c]):
                 continue
-            r[i, c] = y[c]
+            if keep_r:
+                r[i, c] = y[c]
             w = weight[i, c]
             if not w > 0.0:
                 continue

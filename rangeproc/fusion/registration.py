@@ -307,8 +307,8 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     Xc = np.zeros((len(node_t), N_NODE, p))
     rate = None
     for it in range(IRLS_PASSES):
-        # (its pre-fit residuals, the sixth result, are not needed here: let go at once)
-        Nxx, Nxc, Ncc, bx, bc = normal_equations(*args, batch.z, weight, *geo, p)[:5]
+        Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*args, batch.z, weight, *geo, p,
+                                                    residuals=False)
         try:
             S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
         except np.linalg.LinAlgError:

@@ -268,3 +268,20 @@ def test_the_divergence_reset_drops_the_kinematic_correlations() -> None:
     assert np.count_nonzero(P[:9, :] - np.diag(np.diag(P))[:9, :]) == 0
     np.testing.assert_array_equal(P[9:, 9:], cal)
     assert np.all(np.linalg.eigvalsh(P) > 0)
+
+
+def test_normal_equations_without_residuals_give_the_same_sums():
+    rng = np.random.default_rng(13)
+    t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
+    n = len(sensor)
+    node_t, node, weight = _nodes_and_weights(t, meas_epoch, sig)
+    slots = np.full((2, N_SLOTS), -1, dtype=np.int64)
+    slots[0, :3] = [0, 1, 2]
+    args = (meas_epoch, node, node_t, t[meas_epoch], np.full(n, SPHERICAL), z, weight, s,
+            np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.full(n, -1),
+            np.zeros((1, 3, 3)), sensor, slots, xs, 3)
+    full = normal_equations(*args)
+    sums = normal_equations(*args, residuals=False)
+    assert sums[5] is None and np.isfinite(full[5]).any()
+    for a, b in zip(full[:5], sums[:5]):
+        np.testing.assert_array_equal(a, b)
