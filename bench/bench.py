@@ -67,7 +67,7 @@ ROOT = BENCH.parent
 sys.path.insert(0, str(BENCH))
 
 import peers  # noqa: E402  (bench/ is put on sys.path just above)
-from breakdown import Breakdown, print_breakdown  # noqa: E402
+from breakdown import Breakdown, print_breakdown, rss_and_peak  # noqa: E402
 
 #: acceptance figures of the issue
 TARGET_US, TARGET_FP, TARGET_SS, TARGET_AGREE = 2.5, 25.0, 500.0, 1e-8
@@ -352,12 +352,9 @@ def peak_rss_bytes() -> int:
     """Peak resident memory of this process image. Linux: VmHWM of /proc/self/status, which
     starts afresh at exec; ``ru_maxrss`` would also count the parent's peak (Linux carries it
     across fork + exec), so it is only the fallback (KiB on Linux, bytes on macOS)."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        pass
+    got = rss_and_peak()
+    if got is not None:
+        return got[1]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak if sys.platform == "darwin" else peak * 1024
 
@@ -374,7 +371,7 @@ def pipeline_child(config: Path, json_out: Path) -> None:
     t0 = time.perf_counter()
     out = run(config, clock=StageClock(display=where))
     run_s = time.perf_counter() - t0
-    peak = max(peak_rss_bytes(), *(r.get("peak_rss", 0) for r in where.records()))
+    peak = where.peak_rss() or peak_rss_bytes()
     sensors = out.summary["sensors"]
     rows = {sid: int(s.get("n_read", s["n_rows"])) for sid, s in sensors.items()}
     json_out.write_text(json.dumps({

@@ -40,7 +40,7 @@ _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
 
 
-def _rss_and_peak() -> tuple[int, int] | None:
+def rss_and_peak() -> tuple[int, int] | None:
     """(VmRSS, VmHWM) in bytes, or None where /proc does not give them."""
     try:
         fields = {}
@@ -60,8 +60,9 @@ class Breakdown:
         self.open: dict[str, int] = {}                   # label -> open count
         self.order: list[str] = []
         self.rec: dict[str, dict] = {}
-        self.memory = _rss_and_peak() is not None and self._reset_peak()
+        self.memory = rss_and_peak() is not None and self._reset_peak()
         self.stage = ""                                  # the stage open now
+        self.run_peak = 0                                # peak RSS over every boundary
 
     @staticmethod
     def _reset_peak() -> bool:
@@ -75,7 +76,8 @@ class Breakdown:
         """Credit the peak since the last boundary to the open labels; RSS now (bytes)."""
         if not self.memory:
             return None
-        rss, peak = _rss_and_peak()
+        rss, peak = rss_and_peak()
+        self.run_peak = max(self.run_peak, peak)
         for label in self.open:
             r = self.rec[label]
             r["peak_rss"] = max(r["peak_rss"], peak)
@@ -103,6 +105,13 @@ class Breakdown:
             self.open[label] -= 1
             if not self.open[label]:
                 del self.open[label]
+
+    def peak_rss(self) -> int | None:
+        """The process's peak RSS (bytes) since this breakdown started (its resets of
+        ``VmHWM`` hide that peak from ``VmHWM`` alone); None without ``/proc``."""
+        if not self.memory:
+            return None
+        return max(self.run_peak, rss_and_peak()[1])
 
     # -- a StageClock display ------------------------------------------------------------
     def start(self, stage: str, total: int) -> None:
