@@ -173,8 +173,9 @@ def test_row_kernels_split_into_chunks_give_the_values_of_one_piece(monkeypatch)
     assert np.isfinite(whole[2][0]).any() and np.isfinite(whole[1][0]).any()
 
 
-def test_schur_solution_equals_the_dense_least_squares():
-    rng = np.random.default_rng(5)
+def _bias_problem(rng):
+    """``normal_equations``' arguments for the small problem with range, azimuth and
+    elevation biases of both radars (6 terms), and the problem's parts."""
     t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
     n = len(sensor)
     node_t, node, weight = _nodes_and_weights(t, meas_epoch, sig)
@@ -184,6 +185,13 @@ def test_schur_solution_equals_the_dense_least_squares():
     args = (meas_epoch, node, node_t, t[meas_epoch], np.full(n, SPHERICAL), z, weight, s,
             np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.full(n, -1),
             np.zeros((1, 3, 3)), sensor, slots, xs, 6)
+    return args, (t, truth, xs, z, s, sensor, meas_epoch, sig, node_t, node, weight, slots)
+
+
+def test_schur_solution_equals_the_dense_least_squares():
+    args, (t, truth, xs, z, s, sensor, meas_epoch, sig, node_t, node, weight, slots) = \
+        _bias_problem(np.random.default_rng(5))
+    n = len(sensor)
     Nxx, Nxc, Ncc, bx, bc, r = normal_equations(*args)
     q = np.full(len(node_t) - 1, 0.5)
     x_node = xs[np.round(node_t / 0.2).astype(int)]
@@ -271,15 +279,7 @@ def test_the_divergence_reset_drops_the_kinematic_correlations() -> None:
 
 
 def test_normal_equations_without_residuals_give_the_same_sums():
-    rng = np.random.default_rng(13)
-    t, truth, xs, z, s, sensor, meas_epoch, sig = _small_problem(rng)
-    n = len(sensor)
-    node_t, node, weight = _nodes_and_weights(t, meas_epoch, sig)
-    slots = np.full((2, N_SLOTS), -1, dtype=np.int64)
-    slots[0, :3] = [0, 1, 2]
-    args = (meas_epoch, node, node_t, t[meas_epoch], np.full(n, SPHERICAL), z, weight, s,
-            np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.full(n, -1),
-            np.zeros((1, 3, 3)), sensor, slots, xs, 3)
+    args, _ = _bias_problem(np.random.default_rng(13))
     full = normal_equations(*args)
     sums = normal_equations(*args, residuals=False)
     assert sums[5] is None and np.isfinite(full[5]).any()
