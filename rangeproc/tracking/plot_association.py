@@ -157,8 +157,8 @@ def _assign_per_scan(llr: np.ndarray, scan: np.ndarray) -> np.ndarray:
 
 def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
                    tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
-                   owner: np.ndarray, orphan: np.ndarray, floor: np.ndarray | None = None
-                   ) -> np.ndarray:
+                   owner: np.ndarray, orphan: np.ndarray, floor: np.ndarray | None = None,
+                   revisit: float | None = None) -> np.ndarray:
     """``owner`` (P,) with orphan plots (``orphan`` (P,) bool: plots of a plot track that
     no object took) before or after an object's span joined to it.
 
@@ -170,14 +170,16 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
     covariance growing with its white-jerk noise), assigned per scan as in
     :func:`plot_owners`, and kept while they continue the span without a gap of more than
     ``EXTEND_GAP_SCANS`` revisits: a run that reaches the object, not a stray plot
-    that happens to fall in a wide gate.
+    that happens to fall in a wide gate. ``scan`` (P,) groups the plots assigned together;
+    ``revisit`` is the sensor's revisit period (s; default: from ``scan``).
     """
     out = owner.copy()
     idx = np.flatnonzero(orphan & (owner < 0))
     if idx.size == 0 or not tracks:
         return out
     t = batch.t[plots]
-    revisit = revisit_period(t, scan)
+    if revisit is None:
+        revisit = revisit_period(t, scan)
     if not revisit > 0.0:
         return out
     llr = np.full((plots.size, len(tracks)), -np.inf)

@@ -1,14 +1,26 @@
-"""Plots without a track number (a surveillance radar): a multi-target tracker with clutter.
+"""Plots without a track number (a surveillance radar, a plot feed): a multi-target tracker
+with clutter.
 
 Rows without ``track_id`` are plots of anything in view, clutter included (DATA_CONTRACT
 section 2). They are tracked per sensor in the range ENU frame:
 
-* **Scans.** A rotating radar reports in azimuth order, so a scan ends where the azimuth
-  wraps (falls by more than half a turn); a sensor that stamps a whole scan with one time
-  (:func:`is_framed`) has one scan per time stamp. An object gives at most one plot per scan.
-  Plots of a sensor that does neither (:func:`is_rotating`) are not tracked here: such an instrument
-  follows one object at a time, and its plots are segmented like a track
-  (``tracking.segments``).
+* **Plots or one instrument's track** (:func:`several_objects`). A file of rows without
+  ``track_id`` is taken as one instrument following one object only when its consecutive rows
+  could be one object: a step between consecutive rows longer than an object at
+  ``INITIATION_SPEED`` (or a line of sight turning faster than ``ANGULAR_RATE``) could travel,
+  plus ``JUMP_SIGMAS`` of the two rows' noise, is a jump, and a file with more than
+  ``JUMP_SHARE`` of its steps jumps holds several objects. Wild points of a tracking
+  instrument make a few percent of such steps; plots of several objects and clutter make most
+  of them. A radar that sweeps in azimuth (:func:`is_rotating`) or stamps whole scans with one
+  time (:func:`is_framed`) is a plot sensor whatever its steps.
+* **Scans and revisits** (:func:`plot_timing`). A rotating radar reports in azimuth order, so a
+  scan ends where the azimuth wraps (falls by more than half a turn); a sensor that stamps a
+  whole scan with one time has one scan per time stamp. Within a scan an object gives at most
+  one plot. Plots in any other order (a phased-array radar revisiting each object on its own
+  schedule, a feed merged from several radars) have no scans: each time stamp is taken on its
+  own, and missed detections are counted in revisit periods of the sensor, the median time
+  between consecutive plots of its confirmed tracks (found by tracking with a trial revisit
+  until the estimate agrees with the revisit it was tracked with).
 * **Prediction**: a constant-velocity model with white-acceleration noise of PSD
   ``ACCELERATION_PSD`` ((m/s^2)^2/s, a 3 g manoeuvre over a few seconds stays inside the gate).
 * **Association**: global nearest neighbour per scan (Munkres via
@@ -20,10 +32,12 @@ section 2). They are tracked per sensor in the range ENU frame:
   which sees far more evidence than one scan.
 * **Initiation and clutter**: an unassigned plot starts a tentative track; its second plot
   must lie within ``INITIATION_SPEED`` times the elapsed time (plus the plot noise); a track is
-  confirmed after ``CONFIRM_HITS`` hits in its first ``CONFIRM_SCANS`` scans. Clutter, uniform
-  over the coverage, seldom builds such a chain; plots of tracks never confirmed are clutter.
-* **Deletion**: after ``MAX_MISSES`` scans in a row without a plot (detection probability
-  0.9 makes five misses in a row a 1e-5 event), or a tentative track not confirmed in time.
+  confirmed after ``CONFIRM_HITS`` hits in its first ``CONFIRM_SCANS`` scans (revisits).
+  Clutter, uniform over the coverage, seldom builds such a chain; plots of tracks never
+  confirmed are clutter.
+* **Deletion**: after ``MAX_MISSES`` scans (revisits) in a row without a plot (detection
+  probability 0.9 makes five misses in a row a 1e-5 event), or a tentative track not confirmed
+  in time.
 
 Positions come from the plots' range, azimuth and elevation; a plot without elevation (a 2-D
 radar) is placed at elevation 0 with ``NO_ELEVATION_SIGMA`` of uncertainty.
@@ -57,6 +71,22 @@ MAX_TURN_SECONDS = 30.0
 #: Elevation sigma (rad) given to plots without elevation (placed at elevation 0), as the
 #: assembly does for a 2-D radar.
 NO_ELEVATION_SIGMA = PLANE_ELEVATION_SIGMA
+#: Fastest turn of a line of sight an instrument following one object can see (rad/s): an
+#: object at 300 m/s passing 300 m away.
+ANGULAR_RATE = 1.0
+#: A step between consecutive rows is a jump beyond this many sigmas of the two rows' noise
+#: (on top of the distance an object could travel).
+JUMP_SIGMAS = 5.0
+#: A file with more than this share of jumps holds several objects (a tracking instrument's
+#: wild points and noise bursts make a few percent).
+JUMP_SHARE = 0.25
+#: Revisit periods (s) tried first and last by :func:`free_revisit`; the estimate is accepted
+#: when it agrees with the revisit tracked with to ``REVISIT_AGREEMENT`` (relative).
+REVISIT_TRIAL = 4.0
+REVISIT_MAX = MAX_TURN_SECONDS
+REVISIT_AGREEMENT = 0.2
+#: Confirmed tracks with at least this many plots give the revisit estimate.
+REVISIT_MIN_HITS = 5
 
 
 def is_rotating(t: np.ndarray, azimuth: np.ndarray) -> bool:
@@ -106,6 +136,114 @@ def revisit_period(t: np.ndarray, scan: np.ndarray) -> float:
     return float(np.median(np.diff(scan_t))) if scan_t.size > 1 else 0.0
 
 
+def jump_share(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, s: np.ndarray,
+               Qr: np.ndarray) -> float:
+    """Share of the steps between consecutive rows that no single object could make (module
+    docstring: *Plots or one instrument's track*).
+
+    t: (N,) s ascending; z: (N, >=3) range (m, NaN none), azimuth, elevation (rad, NaN none)
+    in the sensor's axes; sigma: (N, >=3) their sigmas; s: (N, 3) sensor position (range ENU
+    m); Qr: (N, 3, 3) rotation range ENU -> sensor axes. Rows with range on both sides of a
+    step are compared as positions (distance against ``INITIATION_SPEED`` dt), others as lines
+    of sight (angle against ``ANGULAR_RATE`` dt). 0 with fewer than two rows.
+    """
+    if t.size < 2:
+        return 0.0
+    r, az, el = z[:, 0], z[:, 1], z[:, 2]
+    dt = np.abs(np.diff(t))
+    ranged = np.isfinite(r)
+    both = ranged[1:] & ranged[:-1]
+    jump = np.zeros(t.size - 1, dtype=bool)
+    if both.any():
+        p, R = plot_positions(np.where(ranged, r, 0.0), az, el, sigma[:, :3], s, Qr)
+        d = np.diff(p, axis=0)
+        dist = np.linalg.norm(d, axis=1)
+        u = d / np.maximum(dist, 1e-9)[:, None]
+        var = np.einsum("ni,nij,nj->n", u, R[1:] + R[:-1], u)
+        jump |= both & (dist > INITIATION_SPEED * dt + JUMP_SIGMAS * np.sqrt(var))
+    angles = ~both
+    if angles.any():
+        flat = ~np.isfinite(el)
+        e = np.where(flat, 0.0, el)
+        los = np.column_stack([np.cos(e) * np.sin(az), np.cos(e) * np.cos(az), np.sin(e)])
+        los = np.einsum("nji,nj->ni", Qr, los)          # sensor axes -> range ENU
+        turn = np.arccos(np.clip(np.einsum("ni,ni->n", los[1:], los[:-1]), -1.0, 1.0))
+        daz = np.abs(np.angle(np.exp(1j * np.diff(az))))
+        planar = flat[1:] | flat[:-1]                    # bearings only: the azimuth step
+        turn = np.where(planar, daz, turn)
+        sig = np.hypot(sigma[1:, 1], sigma[:-1, 1])
+        sig = np.where(planar, sig, np.hypot(sig, np.hypot(np.nan_to_num(sigma[1:, 2]),
+                                                           np.nan_to_num(sigma[:-1, 2]))))
+        jump |= angles & (turn > ANGULAR_RATE * dt + JUMP_SIGMAS * sig)
+    return float(jump.mean())
+
+
+def several_objects(t: np.ndarray, z: np.ndarray, sigma: np.ndarray, s: np.ndarray,
+                    Qr: np.ndarray) -> bool:
+    """True when rows without ``track_id`` (arguments as :func:`jump_share`) are plots of
+    several objects (a plot sensor), False when they are one instrument following one
+    object: the rows sweep in azimuth, come in frames, or jump (module docstring)."""
+    return bool(is_framed(t) or is_rotating(t, z[:, 1])
+                or jump_share(t, z, sigma, s, Qr) > JUMP_SHARE)
+
+
+@dataclass(frozen=True, slots=True)
+class PlotTiming:
+    """How one sensor's plots are grouped in time (module docstring: *Scans and revisits*).
+
+    frame: (N,) int64, plots taken together (an object gives at most one plot per frame);
+    scan: (N,) int64, the scan number, or for plots in no scan order the number of whole
+    revisit periods since the first plot; clock: (N,) float, the same in revisits (the scan
+    number itself for a scanning radar); revisit: the revisit period (s; 0 with one scan);
+    order: "rotating", "framed" or "free".
+    """
+
+    frame: np.ndarray
+    scan: np.ndarray
+    clock: np.ndarray
+    revisit: float
+    order: str
+
+
+def plot_timing(t: np.ndarray, azimuth: np.ndarray, p: np.ndarray, R: np.ndarray
+                ) -> PlotTiming:
+    """The :class:`PlotTiming` of plots at times ``t`` (N,) s ascending, azimuth (N,) rad,
+    ENU positions ``p`` (N, 3) m with covariances ``R`` (N, 3, 3) m^2."""
+    framed = is_framed(t)
+    if framed or is_rotating(t, azimuth):
+        scan = scan_numbers(t, azimuth)
+        return PlotTiming(scan, scan, scan.astype(float), revisit_period(t, scan),
+                          "framed" if framed else "rotating")
+    frame = np.cumsum(np.concatenate([[False], np.diff(t) > 0.0])).astype(np.int64)
+    revisit = free_revisit(t, p, R, frame)
+    clock = (t - t[0]) / revisit if t.size else np.zeros(0)
+    return PlotTiming(frame, np.floor(clock).astype(np.int64), clock, revisit, "free")
+
+
+def free_revisit(t: np.ndarray, p: np.ndarray, R: np.ndarray, frame: np.ndarray) -> float:
+    """Revisit period (s) of plots in no scan order (arguments as :func:`track_plots`): the
+    median time between consecutive plots of the confirmed tracks with at least
+    ``REVISIT_MIN_HITS`` plots, tracked with a trial revisit; tracked again with the estimate
+    until the two agree to ``REVISIT_AGREEMENT`` (at most four times). A trial that confirms
+    no such track is doubled, up to ``REVISIT_MAX``; with none even then, ``REVISIT_MAX``."""
+    trial = REVISIT_TRIAL
+    for _ in range(4):
+        label = track_plots(t, p, R, frame, (t - t[0]) / trial)
+        steps = [np.diff(t[label == k]) for k in range(int(label.max()) + 1)
+                 if np.count_nonzero(label == k) >= REVISIT_MIN_HITS]
+        if not steps:
+            if trial >= REVISIT_MAX:
+                return REVISIT_MAX
+            trial = min(2.0 * trial, REVISIT_MAX)
+            continue
+        estimate = float(np.median(np.concatenate(steps)))
+        estimate = min(max(estimate, 1e-3), REVISIT_MAX)
+        if abs(estimate - trial) <= REVISIT_AGREEMENT * trial:
+            return estimate
+        trial = estimate
+    return trial
+
+
 def plot_positions(r: np.ndarray, az: np.ndarray, el: np.ndarray, sig: np.ndarray,
                    s: np.ndarray, Qr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ENU positions (N, 3) m and covariances (N, 3, 3) m^2 of plots.
@@ -134,13 +272,14 @@ def plot_positions(r: np.ndarray, az: np.ndarray, el: np.ndarray, sig: np.ndarra
 
 @dataclass(slots=True)
 class _Track:
-    """A track under way: CV state x (6,) [p, v] in ENU, covariance P (6, 6), time t (s)."""
+    """A track under way: CV state x (6,) [p, v] in ENU, covariance P (6, 6), time t (s);
+    the clock (scans or revisits, :class:`PlotTiming`) of its first and last plot."""
 
     x: np.ndarray
     P: np.ndarray
     t: float
-    first_scan: int
-    last_scan: int
+    first_scan: float
+    last_scan: float
     hits: int = 1
     confirmed: bool = False
     rows: list[int] = field(default_factory=list)
@@ -167,7 +306,7 @@ def predict_tracks(x: np.ndarray, P: np.ndarray, t_track: np.ndarray, t: np.ndar
     return xp, Pp
 
 
-def start_track(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> _Track:
+def start_track(p: np.ndarray, R: np.ndarray, t: float, scan: float, row: int) -> _Track:
     P = np.zeros((6, 6))
     P[:3, :3] = R
     P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)   # 3 sigma = the speed bound
@@ -175,7 +314,7 @@ def start_track(p: np.ndarray, R: np.ndarray, t: float, scan: int, row: int) -> 
 
 
 def update_track(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.ndarray,
-            t: float, scan: int, row: int) -> None:
+            t: float, scan: float, row: int) -> None:
     S = P[:3, :3] + R
     K = np.linalg.solve(S, P[:3, :]).T
     tr.x = x + K @ (p - x[:3])
@@ -187,20 +326,24 @@ def update_track(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.
     tr.rows.append(row)
 
 
-def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray
-                ) -> np.ndarray:
+def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                clock: np.ndarray | None = None) -> np.ndarray:
     """(N,) int64 track label per plot (0, 1, ... in order of confirmation; -1 = clutter).
 
-    t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) scan numbers
-    (:func:`scan_numbers`). See the module docstring for the method.
+    t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) the frames plots are
+    assigned in (:class:`PlotTiming`; a scanning radar's scan numbers); clock: (N,) float,
+    the time in scans or revisits that counts misses and confirmation (default: ``scan``).
+    See the module docstring for the method.
     """
+    if clock is None:
+        clock = np.asarray(scan, dtype=float)
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     live: list[_Track] = []
     done: list[_Track] = []
     order = np.argsort(scan, kind="stable")
     bounds = np.flatnonzero(np.diff(scan[order])) + 1
     for rows in np.split(order, bounds):
-        k = int(scan[rows[0]])
+        k = float(clock[rows[0]])
         cost = np.full((rows.size, len(live)), np.inf)
         if live:                                     # every live track against every plot
             xs, Ps = predict_tracks(np.stack([tr.x for tr in live]),

@@ -82,10 +82,10 @@ from rangeproc.tracking.plot_association import (
 )
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plots import (
-    is_framed,
-    is_rotating,
+    PlotTiming,
     plot_positions,
-    scan_numbers,
+    plot_timing,
+    several_objects,
     track_plots,
 )
 from rangeproc.tracking.relay import (
@@ -151,12 +151,16 @@ def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
 
 
 def sensor_segments(sensor: int, rows: SensorRows
-                    ) -> tuple[list[Segment], np.ndarray, np.ndarray]:
-    """Segments of one radar/theodolite, plus its clutter rows and its angle-only plot rows
-    (index arrays into ``rows``). Segment ids count from 0 (the caller offsets them)."""
+                    ) -> tuple[list[Segment], np.ndarray, np.ndarray,
+                               tuple[np.ndarray, PlotTiming] | None]:
+    """Segments of one radar/theodolite, plus its clutter rows, its angle-only plot rows
+    (index arrays into ``rows``) and, for a plot sensor, its ranged plot rows with their
+    timing (``tracking.plots.plot_timing``; None otherwise). Segment ids count from 0 (the
+    caller offsets them)."""
     out: list[Segment] = []
     clutter = np.zeros(0, dtype=np.int64)
     angle_plots = np.zeros(0, dtype=np.int64)
+    timing = None
     has_range_row = np.isfinite(rows.z[:, 0])
 
     def add(sel: np.ndarray, track: int, plot: bool = False) -> None:
@@ -167,7 +171,8 @@ def sensor_segments(sensor: int, rows: SensorRows
     plots = rows.track < 0
     if plots.any():
         sel = np.flatnonzero(plots)
-        if not (is_framed(rows.t[sel]) or is_rotating(rows.t[sel], rows.z[sel, AZIMUTH])):
+        if not several_objects(rows.t[sel], rows.z[sel], rows.sigma[sel], rows.s[sel],
+                               rows.Qr[sel]):
             plots[:] = False                  # a tracking instrument without track numbers
     for tid in np.unique(rows.track[~plots]):
         sel = np.flatnonzero((rows.track == tid) & ~plots)
@@ -183,13 +188,14 @@ def sensor_segments(sensor: int, rows: SensorRows
             z = rows.z[ranged]
             p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3],
                                   rows.s[ranged], rows.Qr[ranged])
-            scan = scan_numbers(rows.t[ranged], z[:, 1])
-            label = repair_heads(rows.t[ranged], p, R, scan,
-                                 track_plots(rows.t[ranged], p, R, scan))
+            timing = plot_timing(rows.t[ranged], z[:, 1], p, R)
+            label = repair_heads(rows.t[ranged], p, R, timing.scan,
+                                 track_plots(rows.t[ranged], p, R, timing.frame, timing.clock))
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, plot=True)
-    return out, clutter, angle_plots
+            timing = (ranged, timing)
+    return out, clutter, angle_plots, timing
 
 
 def _grow(objects: Objects, names: list[str], pending: list[Segment],
@@ -253,6 +259,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     segments: list[Segment] = []
     clutter: dict[int, np.ndarray] = {}
     angle_plots: dict[int, np.ndarray] = {}
+    timings: dict[int, tuple[np.ndarray, PlotTiming]] = {}
     tracked = [i for i, r in rows.items()
                if kinds[i] in ("radar", "theodolite") and r.t.size]
     for name in declared:
@@ -271,8 +278,10 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                                  for _, sel in objects.members[job])
 
     done = thread_map(first_job, [*tracked, *starting], cost=first_cost)   # side by side
-    for i, (segs, clutter_rows, angle_rows) in zip(tracked, done):
+    for i, (segs, clutter_rows, angle_rows, timing) in zip(tracked, done):
         clutter[i], angle_plots[i] = clutter_rows, angle_rows
+        if timing is not None:
+            timings[i] = timing
         first = len(segments)                                  # ids in sensor order
         segments.extend(replace(s, id=first + s.id) for s in segs)
     tick()
@@ -322,7 +331,8 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     discovered = relay_lone_objects(objects, declared, anchored, discovered, segs_of)
     final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
                    key=lambda s: s.id)
-    plot_owner = _reassociate_plots(objects, [*anchored, *discovered], final, clutter)
+    plot_owner = _reassociate_plots(objects, [*anchored, *discovered], final, clutter,
+                                    timings)
     # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
     discovered = [k for k in discovered if objects.members.get(k)]
     names = _name_objects(objects, declared, anchored, discovered)
@@ -346,11 +356,13 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
 
 
 def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
-                       clutter: Mapping[int, np.ndarray]
+                       clutter: Mapping[int, np.ndarray],
+                       timings: Mapping[int, tuple[np.ndarray, PlotTiming]]
                        ) -> dict[int, tuple[np.ndarray, list[str]]]:
     """Step 5: every plot of a plot-tracked sensor (its tracks' rows and its clutter) goes to
     the object it fits best (``tracking.plot_association``); the memberships change
-    accordingly. Returns sensor -> (plot rows, the key of each one's object or "")."""
+    accordingly. ``timings``: sensor -> (its ranged plot rows, their timing). Returns
+    sensor -> (plot rows, the key of each one's object or "")."""
     plots: dict[int, list[np.ndarray]] = {}
     for seg in segments:
         if seg.plot:
@@ -360,14 +372,16 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
     for i, parts in plots.items():
         rows = np.unique(np.concatenate([*parts, clutter.get(i, np.zeros(0, np.int64))]))
         batch = as_batch(objects.rows[i], objects.sensor_ids, i)
-        scan = scan_numbers(batch.t[rows], batch.z[rows, AZIMUTH])
+        ranged, timing = timings[i]
+        at = np.searchsorted(ranged, rows)
+        frame, scan = timing.frame[at], timing.scan[at]
         before = np.full(rows.size, -1, dtype=np.int64)  # where the plot tracks put them
         for j, k in enumerate(keys):
             for sensor, sel in objects.members.get(k, []):
                 if sensor == i:
                     before[np.isin(rows, sel)] = j
         floor = clutter_floor(batch, rows, scan, clutter.get(i, np.zeros(0)).size)
-        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], scan,
+        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], frame,
                                    before, floor)
         doubtful = _doubtful(objects, keys, batch, rows, before, gated)
         if doubtful:          # quick trajectories that miss their own plots: refined, and
@@ -376,7 +390,7 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
             for k, track in zip(doubtful, refined):
                 objects.adopt(k, track)
             again, gated_again = plot_owners(batch, rows, [objects.tracks[k] for k in keys],
-                                             scan, before, floor)
+                                             frame, before, floor)
             rescue = ~gated & gated_again
             owner, gated = np.where(rescue, again, owner), gated | gated_again
         keep = before >= 0                 # an ungated plot stays with its plot track's
@@ -386,8 +400,8 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
                          & ~_isolated_outliers(objects.tracks[keys[j]], batch, rows,  # lone
                                                before == j, own))                    # outlier
         owner = np.where(gated, owner, np.where(keep, before, -1))
-        owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], scan, owner,
-                               np.isin(rows, np.concatenate(parts)), floor)
+        owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], frame, owner,
+                               np.isin(rows, np.concatenate(parts)), floor, timing.revisit)
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
