@@ -193,8 +193,11 @@ def run_cmd(config: Path, quiet: bool) -> None:
                    "units. Written to truth_calibration.json.")
 @click.option("--objects", "objects", default=None, metavar="KIND",
               help="Several objects instead of one: crossing, formation, lock-jump, "
-                   "operator-switch, surveillance, mixed or scale (issue 9's benchmark: 10 "
-                   "objects, SR1, tracking radars R1-R3, GPS on four; e.g. --duration 1800). "
+                   "operator-switch, surveillance, phased-array (plots not in azimuth order: "
+                   "each object revisited every 2 s), merged-feed (one plot file of two "
+                   "rotating radars at different sites), mixed or scale (issue 9's "
+                   "benchmark: 10 objects, SR1, tracking radars R1-R3, GPS on four; e.g. "
+                   "--duration 1800). "
                    "Objects with GPS are declared "
                    "targets, the others are not; also writes truth_association.csv and "
                    "truth_events.json. Not combined with --sensors, --rate-scale, --faults.")
@@ -211,7 +214,8 @@ def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_s
     target GPS and MISTRAM stations, with realistic noise, dropouts, bursts and wild points.
     Writes the sensor files, scenario.toml (a contract-only config) and truth.csv (and, with
     --faults, the injected systematic errors as truth_calibration.json). With --objects, a
-    multi-object scenario of that kind (tracks that jump, surveillance plots with clutter).
+    multi-object scenario of that kind (tracks that jump, surveillance plots with clutter,
+    in azimuth order or not).
     """
     from rangeproc.simulate import resolve_faults, simulate_multi, simulate_scenario
 

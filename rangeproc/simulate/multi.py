@@ -12,12 +12,18 @@ Kinds (object counts): ``crossing`` (2-3) aircraft crossing within a few hundred
 ``formation`` (2-4) 100-300 m apart, splitting mid-flight; ``lock-jump`` (2-3) a radar track
 that jumps to another object at a close pass; ``operator-switch`` (2-3) a theodolite operator
 moving to another object; ``surveillance`` (3-5) a rotating radar's plots with clutter;
-``mixed`` (2-5) all of these at once, with a ship radar and MISTRAM; ``scale`` (5-20, 10
-unless ``n_objects`` is given) the several-objects benchmark scenario of issue 9 (run it with
-``duration=1800``): the surveillance radar SR1 (a scan every 4 s, 20 clutter plots per scan),
-three fixed tracking radars R1, R2, R3, each with two tracks at a time that may be handed over
-to another object mid-flight (so each radar follows 2-4 objects), and GPS on exactly four
-objects (T1..T4; the others U1.. are undeclared).
+``phased-array`` (3-5) the plots of a phased-array radar PA1 that looks at each object every
+2 s on the object's own schedule (random phase, +-10 % jitter), so its rows jump between
+objects in no azimuth order, with clutter at random times; ``merged-feed`` (3-5) one plot
+file PF1 merging two rotating radars at different sites (a scan every 4 s and every 5 s),
+converted to the first radar's site, so the azimuths of a scan are not monotonic;
+``mixed`` (2-5) a close pass, a split, a lock jump, an operator switch and SR1 at once,
+with a ship radar and MISTRAM; ``scale`` (5-20, 10 unless ``n_objects`` is given) the
+several-objects benchmark scenario of issue 9 (run it with ``duration=1800``): the
+surveillance radar SR1 (a scan every 4 s, 20 clutter plots per scan), three fixed tracking
+radars R1, R2, R3, each with two tracks at a time that may be handed over to another object
+mid-flight (so each radar follows 2-4 objects), and GPS on exactly four objects (T1..T4; the
+others U1.. are undeclared).
 
 Every kind has GPS on some objects only, a fixed tracking radar R1 (20 Hz per track, with
 track_id), missed detections, noise, wild points and empty cells as in the single-object
@@ -55,7 +61,8 @@ log = logging.getLogger(__name__)
 #: kind -> (fewest, most) objects
 KINDS: dict[str, tuple[int, int]] = {
     "crossing": (2, 3), "formation": (2, 4), "lock-jump": (2, 3), "operator-switch": (2, 3),
-    "surveillance": (3, 5), "mixed": (2, 5), "scale": (5, 20)}
+    "surveillance": (3, 5), "phased-array": (3, 5), "merged-feed": (3, 5), "mixed": (2, 5),
+    "scale": (5, 20)}
 #: kind -> object count when ``n_objects`` is not given (other kinds: drawn within KINDS)
 DEFAULT_OBJECTS: dict[str, int] = {"scale": 10}
 SCALE_GPS = 4  #: objects carrying GPS in kind ``scale``
@@ -140,14 +147,43 @@ def theodolite(d: Draw, near: np.ndarray, tracks: list[ms.TrackPlan]) -> ms.Site
                          tuple(tracks), wild_fraction=float(g.uniform(0.005, 0.01)))
 
 
-def surveillance_radar(d: Draw) -> ms.Surveillance:
-    """SR1: rotating surveillance radar 0.5-3 km from the origin on a 5-40 m mast, a scan
-    every 4 s; range 20-60 m, azimuth 1.5-3 mrad, elevation 3-6 mrad."""
+def surveillance_radar(d: Draw, sid: str = "SR1", *, period: float = 4.0,
+                       around: sn.Geo | None = None,
+                       distance: tuple[float, float] = (0.5e3, 3e3)) -> ms.Surveillance:
+    """SR1 (or ``sid``): rotating surveillance radar ``distance`` (m, (lo, hi); default
+    0.5-3 km) from the origin (or from ``around``) on a 5-40 m mast, a scan every ``period``
+    s at a random phase; range 20-60 m, azimuth 1.5-3 mrad, elevation 3-6 mrad."""
     g = d.g
-    site = _geo_at(d.origin, *_polar(g, 0.5e3, 3e3), d.origin.height + g.uniform(5, 40))
+    site = _geo_at(around or d.origin, *_polar(g, *distance),
+                   d.origin.height + g.uniform(5, 40))
     sigma = {"range": _r(g.uniform(20, 60)), "azimuth": _r(g.uniform(1.5, 3) * _MRAD, 6),
              "elevation": _r(g.uniform(3, 6) * _MRAD, 6)}
-    return ms.Surveillance("SR1", "SR1.csv", site, sigma, phase=float(g.uniform(0, 4)))
+    return ms.Surveillance(sid, f"{sid}.csv", site, sigma, phase=float(g.uniform(0, period)),
+                           period=period)
+
+
+def phased_array_radar(d: Draw) -> ms.PhasedArray:
+    """PA1: phased-array surveillance radar 0.5-3 km from the origin on a 5-40 m mast; each
+    object revisited every 2 s (its own random phase, +-10 % jitter), Pd 0.9, 10 clutter
+    plots per revisit period; range 10-30 m, azimuth 1-2 mrad, elevation 1.5-3 mrad."""
+    g = d.g
+    site = _geo_at(d.origin, *_polar(g, 0.5e3, 3e3), d.origin.height + g.uniform(5, 40))
+    sigma = {"range": _r(g.uniform(10, 30)), "azimuth": _r(g.uniform(1, 2) * _MRAD, 6),
+             "elevation": _r(g.uniform(1.5, 3) * _MRAD, 6)}
+    return ms.PhasedArray("PA1", "PA1.csv", site, sigma, revisit=2.0, jitter=0.1, pd=0.9,
+                          clutter=10.0)
+
+
+def merged_feed(d: Draw) -> ms.MergedFeed:
+    """PF1: one plot feed of two rotating surveillance radars drawn as SR1: A 0.5-3 km from
+    the origin, a scan every 4 s, and B 3-8 km from A, a scan every 5 s, each at its own random
+    phase with its own sigmas and 20 clutter plots per scan. The feed's declared site is A's
+    (every plot is converted to it), its declared sigmas the larger of A's and B's per
+    component (each radar's plots carry its own noise, see :class:`MergedFeed`)."""
+    a = surveillance_radar(d, "PF1A", period=4.0)
+    b = surveillance_radar(d, "PF1B", period=5.0, around=a.site, distance=(3e3, 8e3))
+    sigma = {k: max(a.sigma[k], b.sigma[k]) for k in a.sigma}
+    return ms.MergedFeed("PF1", "PF1.csv", a.site, sigma, (a, b))
 
 
 def track_base(d: Draw) -> int:
@@ -237,8 +273,22 @@ def _operator_switch(d: Draw, n: int) -> Layout:
 
 
 def _surveillance(d: Draw, n: int) -> Layout:
+    return _plots(d, n, surveillance_radar)
+
+
+def _phased_array(d: Draw, n: int) -> Layout:
+    return _plots(d, n, phased_array_radar)
+
+
+def _merged_feed(d: Draw, n: int) -> Layout:
+    return _plots(d, n, merged_feed)
+
+
+def _plots(d: Draw, n: int, plot_sensor: Callable[[Draw], ms.Sensor]) -> Layout:
+    """n independent flights, the plot sensor (drawn by ``plot_sensor``) that sees them all
+    and R1 tracking one or two of them."""
     flights = [plan_trajectory(r, d.span, d.t0) for r in d.rngs]
-    sr = surveillance_radar(d)
+    sr = plot_sensor(d)
     seen = sorted(int(k) for k in d.g.choice(n, size=int(d.g.integers(1, 3)), replace=False))
     base = track_base(d)
     r1 = tracking_radar(d, [_single(d.at(0.0, 0.2), d.end, k, base + i)
@@ -314,7 +364,8 @@ def ship_sensors(d: Draw, obj: int) -> list[ms.Sensor]:
 
 DRAWERS: dict[str, Callable[[Draw, int], Layout]] = {
     "crossing": _crossing, "formation": _formation, "lock-jump": _lock_jump,
-    "operator-switch": _operator_switch, "surveillance": _surveillance, "mixed": _mixed,
+    "operator-switch": _operator_switch, "surveillance": _surveillance,
+    "phased-array": _phased_array, "merged-feed": _merged_feed, "mixed": _mixed,
     "scale": _scale}
 
 
@@ -378,8 +429,8 @@ def gps_carriers(g: np.random.Generator, n: int, must: tuple[int, ...]) -> list[
 def track_unseen(d: Draw, sensors: list[ms.Sensor], carriers: list[int], n: int
                  ) -> list[ms.Sensor]:
     """The sensors, R1 given one more track on each object that nothing would see (no GPS,
-    no track of any sensor, no surveillance radar), so that every object is in the data."""
-    if any(isinstance(s, ms.Surveillance) for s in sensors):
+    no track of any sensor, no plot sensor), so that every object is in the data."""
+    if any(isinstance(s, ms.PLOT_SENSORS) for s in sensors):
         return sensors
     seen = set(carriers) | {pc.obj for s in sensors for plan in getattr(s, "tracks", ())
                             for pc in plan.pieces}

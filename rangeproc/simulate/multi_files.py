@@ -39,7 +39,7 @@ def sensor_entry(spec: ms.Sensor, ids: tuple[str, ...]) -> dict[str, object]:
     if isinstance(spec, ms.SiteSensor):
         e.update(kind=spec.kind, file=spec.file, site=spec.site, angle_unit=spec.unit,
                  sigma=_sigma_units(spec.sigma, sn.ANGLE_SCALE[spec.unit]))
-    elif isinstance(spec, ms.Surveillance):
+    elif isinstance(spec, ms.PLOT_SENSORS):
         e.update(kind="radar", file=spec.file, site=spec.site, angle_unit="deg",
                  sigma=_sigma_units(spec.sigma, deg))
     elif isinstance(spec, ms.ShipRadar):

@@ -6,7 +6,10 @@ each a sequence of :class:`Piece` s, spans of range time in which its rows measu
 under one ``track_id``. A lock jump is two pieces without a gap; an operator moving to another
 object leaves a gap (the slew). A surveillance radar rotates and reports plots (no track_id)
 of every object in its coverage, with detection probability ``pd``, plus Poisson clutter
-uniform over the coverage volume.
+uniform over the coverage volume. Two plot sensors report out of azimuth order: a phased-array
+radar (:class:`PhasedArray`) looks at each object on the object's own schedule, and a merged
+plot feed (:class:`MergedFeed`) interleaves the plots of two rotating radars at different
+sites, converted to one reference site.
 
 Every builder returns a :class:`SensorTable`: the file's columns in file units, rows sorted by
 time (see :mod:`rangeproc.simulate.sensors`), and for radars/theodolites the true object of
@@ -21,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
+import pymap3d as pm
 
 from rangeproc.simulate import sensors as sn
 from rangeproc.simulate.files import int_column
@@ -122,6 +126,52 @@ class Surveillance:
 
 
 @dataclass(frozen=True, slots=True)
+class PhasedArray:
+    """Phased-array surveillance radar (faces all round: every azimuth). Each object inside
+    the coverage (range r_min..r_max m, elevation el_min..el_max rad, at most ``ceiling`` m
+    above the site) is looked at every ``revisit`` s on its own schedule: a random phase per
+    object and a random jitter of up to +-``jitter`` revisits per look; a look detects it with
+    probability ``pd``. Poisson clutter of mean ``clutter`` plots per revisit period, uniform
+    over the coverage volume, each at a uniformly random time. Every plot carries its own time
+    stamp, so consecutive rows jump between objects in no azimuth order."""
+
+    sid: str
+    file: str
+    site: sn.Geo
+    sigma: dict[str, float]
+    revisit: float = 2.0
+    jitter: float = 0.1
+    pd: float = 0.9
+    clutter: float = 10.0
+    r_min: float = 1e3
+    r_max: float = 80e3
+    el_min: float = math.radians(0.5)
+    el_max: float = math.radians(60.0)
+    ceiling: float = 15e3
+    offset: float = 0.0
+    wild_fraction: float = 0.005
+
+
+@dataclass(frozen=True, slots=True)
+class MergedFeed:
+    """One plot feed of several rotating radars (``radars``: each a :class:`Surveillance` with
+    its own site, period, phase, coverage, pd, clutter and sigmas; their ``sid``, ``file`` and
+    ``offset`` are not used), merged in time order. Every plot, clutter included, is converted
+    to range, azimuth and elevation at the feed's reference ``site`` (the declared site; the
+    first radar's). Noise: each radar's own sigmas, drawn in the reference site's polar frame
+    (as if the feed's converter kept each radar's stated accuracy); ``sigma`` (declared) is
+    the larger of the radars' sigmas per component, so it covers every plot. Within a scan the
+    file's azimuths are not monotonic: the radars' sweeps interleave."""
+
+    sid: str
+    file: str
+    site: sn.Geo
+    sigma: dict[str, float]
+    radars: tuple[Surveillance, ...]
+    offset: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
 class GpsReceiver:
     """GPS on object ``obj``; dropouts and a x10 noise burst in range times (s)."""
 
@@ -159,7 +209,11 @@ class Mistram:
     offset: float = 0.0
 
 
-Sensor = SiteSensor | ShipRadar | Surveillance | GpsReceiver | ShipIns | Mistram
+Sensor = (SiteSensor | ShipRadar | Surveillance | PhasedArray | MergedFeed | GpsReceiver
+          | ShipIns | Mistram)
+#: sensors that report plots (rows without track_id) of every object in coverage
+PLOT_SENSORS = (Surveillance, PhasedArray, MergedFeed)
+Coverage = Surveillance | PhasedArray  #: a plot radar's coverage volume
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +236,10 @@ def build(spec: Sensor, world: World, rng: np.random.Generator, noise: bool) -> 
         return _ship_table(spec, world, timing, nz, noise)
     if isinstance(spec, Surveillance):
         return _surveillance_table(spec, world, timing, nz, noise)
+    if isinstance(spec, PhasedArray):
+        return _phased_array_table(spec, world, timing, nz, noise)
+    if isinstance(spec, MergedFeed):
+        return _merged_feed_table(spec, world, timing, nz, noise)
     if isinstance(spec, GpsReceiver):
         return _gps_table(spec, world, timing, nz, noise)
     if isinstance(spec, ShipIns):
@@ -296,13 +354,13 @@ def sweep_times(flight: Trajectory, spec: Surveillance, world: World, scans: np.
     return t
 
 
-def in_coverage(spec: Surveillance, r: np.ndarray, el: np.ndarray) -> np.ndarray:
+def in_coverage(spec: Coverage, r: np.ndarray, el: np.ndarray) -> np.ndarray:
     """(M,) bool: slant range r (m), elevation el (rad) inside the radar's coverage volume."""
     return ((r >= spec.r_min) & (r <= spec.r_max) & (el >= spec.el_min) & (el <= spec.el_max)
             & (r * np.sin(el) <= spec.ceiling))
 
 
-def clutter_range_elevation(rng: np.random.Generator, spec: Surveillance, n: int
+def clutter_range_elevation(rng: np.random.Generator, spec: Coverage, n: int
                             ) -> tuple[np.ndarray, np.ndarray]:
     """(n,) slant ranges (m) and elevations (rad) uniform over the coverage volume
     (volume element r^2 cos(el) dr d(el) d(az): r^3 and sin(el) uniform, then the ceiling)."""
@@ -316,8 +374,11 @@ def clutter_range_elevation(rng: np.random.Generator, spec: Surveillance, n: int
     return r_out[:n], el_out[:n]
 
 
-def _surveillance_table(spec: Surveillance, world: World, timing: np.random.Generator,
-                        nz: np.random.Generator, noise: bool) -> SensorTable:
+def scan_detections(spec: Surveillance, world: World, timing: np.random.Generator
+                    ) -> tuple[np.ndarray, ...]:
+    """A rotating radar's detections of the objects: true times (M,) s (the beam on the
+    object), object indices (M,) and range (m), azimuth, elevation (rad) at its site, object
+    by object; each scan's look detects an object inside the coverage with probability pd."""
     t_lo, t_hi = world.t0 + 0.1, world.t0 + world.duration - 0.1
     scans = np.arange(-1, int(math.ceil(world.duration / spec.period)) + 1)
     parts = []
@@ -328,26 +389,117 @@ def _surveillance_table(spec: Surveillance, world: World, timing: np.random.Gene
         seen = (in_coverage(spec, r, el) & (t >= t_lo) & (t <= t_hi)
                 & (timing.random(t.size) < spec.pd))
         parts.append((t[seen], np.full(int(seen.sum()), k), r[seen], az[seen], el[seen]))
-    t_obj, obj, r, az, el = (np.concatenate([p[i] for p in parts]) for i in range(5))
-    f_obj = sn.file_times(t_obj, spec.offset)[0]
-    cols, wild = sn.rae_columns_wild(nz, f_obj, (r, az, el), spec.sigma, "deg", noise=noise,
-                                     wild_fraction=spec.wild_fraction,
-                                     n_missing=int(nz.integers(0, 4)), missing="elevation")
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(5))
+
+
+def scan_clutter(spec: Surveillance, world: World, timing: np.random.Generator
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A rotating radar's clutter: Poisson, mean ``clutter`` per scan, uniform over the
+    coverage volume, each plot at the time the beam passes its azimuth. True times (M,) s,
+    range (m), azimuth, elevation (rad) at its site."""
+    t_lo, t_hi = world.t0 + 0.1, world.t0 + world.duration - 0.1
+    scans = np.arange(-1, int(math.ceil(world.duration / spec.period)) + 1)
     n_c = timing.poisson(spec.clutter, scans.size)
     az_c = timing.uniform(0.0, 2 * math.pi, int(n_c.sum()))
     t_c = world.t0 + spec.phase + spec.period * (np.repeat(scans, n_c) + az_c / (2 * math.pi))
     r_c, el_c = clutter_range_elevation(timing, spec, az_c.size)
     keep = (t_c >= t_lo) & (t_c <= t_hi)
+    return t_c[keep], r_c[keep], az_c[keep], el_c[keep]
+
+
+def clutter_columns(t_file: np.ndarray, r: np.ndarray, az: np.ndarray, el: np.ndarray
+                    ) -> dict[str, np.ndarray]:
+    """Clutter rows' columns time, range, azimuth, elevation (deg), as written (no noise)."""
     deg = sn.ANGLE_SCALE["deg"]
-    clutter = {"time": sn.file_times(t_c[keep], spec.offset)[0], "range": r_c[keep],
-               "azimuth": az_c[keep] * deg, "elevation": el_c[keep] * deg}
-    merged = {k: np.concatenate((cols[k], clutter[k])) for k in cols}
-    obj = np.concatenate((obj, np.full(int(keep.sum()), -1)))
-    wild = np.concatenate((wild, np.zeros(int(keep.sum()), dtype=bool)))
-    order = np.argsort(merged["time"], kind="stable")
-    out: dict[str, np.ndarray | pa.Array] = {k: val[order] for k, val in merged.items()}
+    return {"time": t_file, "range": r, "azimuth": az * deg, "elevation": el * deg}
+
+
+def plot_table(parts: list[tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]]
+               ) -> SensorTable:
+    """The table of a plot sensor: the parts' rows (columns, objects (-1 clutter), wild)
+    concatenated in order, then sorted by time (stable); track_id cells all empty."""
+    cols = {k: np.concatenate([c[k] for c, _, _ in parts]) for k in parts[0][0]}
+    obj = np.concatenate([o for _, o, _ in parts]).astype(np.int64)
+    wild = np.concatenate([w for _, _, w in parts]).astype(bool)
+    order = np.argsort(cols["time"], kind="stable")
+    out: dict[str, np.ndarray | pa.Array] = {k: val[order] for k, val in cols.items()}
     out["track_id"] = int_column(np.zeros(order.size), np.zeros(order.size, dtype=bool))
     return SensorTable(out, obj[order], wild[order], order.size)
+
+
+def _surveillance_table(spec: Surveillance, world: World, timing: np.random.Generator,
+                        nz: np.random.Generator, noise: bool) -> SensorTable:
+    t_obj, obj, r, az, el = scan_detections(spec, world, timing)
+    f_obj = sn.file_times(t_obj, spec.offset)[0]
+    cols, wild = sn.rae_columns_wild(nz, f_obj, (r, az, el), spec.sigma, "deg", noise=noise,
+                                     wild_fraction=spec.wild_fraction,
+                                     n_missing=int(nz.integers(0, 4)), missing="elevation")
+    t_c, r_c, az_c, el_c = scan_clutter(spec, world, timing)
+    clutter = clutter_columns(sn.file_times(t_c, spec.offset)[0], r_c, az_c, el_c)
+    return plot_table([(cols, obj, wild),
+                       (clutter, np.full(t_c.size, -1), np.zeros(t_c.size, dtype=bool))])
+
+
+def _phased_array_table(spec: PhasedArray, world: World, timing: np.random.Generator,
+                        nz: np.random.Generator, noise: bool) -> SensorTable:
+    """Looks every ``revisit`` s per object (own phase, jitter), then clutter at random
+    times; geometry at the measurement time a reader reconstructs."""
+    t_lo, t_hi = world.t0 + 0.1, world.t0 + world.duration - 0.1
+    looks = np.arange(int(math.ceil(world.duration / spec.revisit)) + 1)
+    parts = []
+    for k, flight in enumerate(world.flights):
+        phase = timing.uniform(0.0, spec.revisit)
+        jitter = timing.uniform(-spec.jitter, spec.jitter, looks.size)
+        t = world.t0 + phase + spec.revisit * (looks + jitter)
+        t_file, t_meas = sn.file_times(t, spec.offset)
+        p, v, _ = flight.state(np.clip(t_meas, world.t0, world.t0 + flight.duration - 0.05))
+        r, az, el, _ = sn.fixed_site_geometry(p, v, world.origin, spec.site)
+        seen = (in_coverage(spec, r, el) & (t >= t_lo) & (t <= t_hi)
+                & (timing.random(t.size) < spec.pd))
+        parts.append((t_file[seen], np.full(int(seen.sum()), k), r[seen], az[seen], el[seen]))
+    f_obj, obj, r, az, el = (np.concatenate([p[i] for p in parts]) for i in range(5))
+    cols, wild = sn.rae_columns_wild(nz, f_obj, (r, az, el), spec.sigma, "deg", noise=noise,
+                                     wild_fraction=spec.wild_fraction,
+                                     n_missing=int(nz.integers(0, 4)), missing="elevation")
+    n_c = int(timing.poisson(spec.clutter * (t_hi - t_lo) / spec.revisit))
+    t_c = timing.uniform(t_lo, t_hi, n_c)
+    az_c = timing.uniform(0.0, 2 * math.pi, n_c)
+    r_c, el_c = clutter_range_elevation(timing, spec, n_c)
+    clutter = clutter_columns(sn.file_times(t_c, spec.offset)[0], r_c, az_c, el_c)
+    return plot_table([(cols, obj, wild),
+                       (clutter, np.full(n_c, -1), np.zeros(n_c, dtype=bool))])
+
+
+def to_reference(site: sn.Geo, ref: sn.Geo, r: np.ndarray, az: np.ndarray, el: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points at range r (m), azimuth, elevation (rad) from ``site`` as range (m), azimuth in
+    [0, 2 pi), elevation (rad) from ``ref`` (geodetic, WGS-84)."""
+    x, y, z = pm.aer2ecef(az, el, r, math.radians(site.lat), math.radians(site.lon),
+                          site.height, deg=False)
+    az2, el2, r2 = pm.ecef2aer(x, y, z, math.radians(ref.lat), math.radians(ref.lon),
+                               ref.height, deg=False)
+    return np.asarray(r2), np.mod(az2, 2 * math.pi), np.asarray(el2)
+
+
+def _merged_feed_table(spec: MergedFeed, world: World, timing: np.random.Generator,
+                       nz: np.random.Generator, noise: bool) -> SensorTable:
+    """Each radar's detections and clutter (timing and coverage at its own site), converted
+    to the reference site; noise with the radar's own sigmas; merged in time order."""
+    parts = []
+    for radar in spec.radars:
+        t_obj, obj, _, _, _ = scan_detections(radar, world, timing)
+        f_obj, t_meas = sn.file_times(t_obj, spec.offset)
+        p, v = object_states(world, t_meas, obj)
+        r, az, el, _ = sn.fixed_site_geometry(p, v, world.origin, spec.site)
+        cols, wild = sn.rae_columns_wild(nz, f_obj, (r, az, el), radar.sigma, "deg",
+                                         noise=noise, wild_fraction=radar.wild_fraction,
+                                         n_missing=int(nz.integers(0, 3)), missing="elevation")
+        parts.append((cols, obj, wild))
+        t_c, r_c, az_c, el_c = scan_clutter(radar, world, timing)
+        clutter = clutter_columns(sn.file_times(t_c, spec.offset)[0],
+                                  *to_reference(radar.site, spec.site, r_c, az_c, el_c))
+        parts.append((clutter, np.full(t_c.size, -1), np.zeros(t_c.size, dtype=bool)))
+    return plot_table(parts)
 
 
 def _gps_table(spec: GpsReceiver, world: World, timing: np.random.Generator,

@@ -1,5 +1,5 @@
 """simulate_multi: multi-object scenarios with truth (crossing, formation, lock-jump,
-operator-switch, surveillance, mixed).
+operator-switch, surveillance, phased-array, merged-feed, mixed).
 
 Checks are independent of the simulator's geometry code: measurements are recomputed from
 truth.csv (cubic Hermite interpolation per object) and the config's sites with pyproj; files
@@ -10,6 +10,7 @@ from __future__ import annotations
 import filecmp
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -23,12 +24,15 @@ from rangeproc.cli import main
 from rangeproc.config import load_config
 from rangeproc.errors import ConfigError
 from rangeproc.io.readers import read_sensor
-from rangeproc.simulate import MULTI_KINDS, simulate_multi
+from rangeproc.simulate import MULTI_KINDS, draw_multi, simulate_multi
+from rangeproc.simulate import multi_sensors as ms
+from rangeproc.tracking.plots import is_rotating
 from geo_oracle import ecef, enu_basis
 
 DUR, SEEDS = 90.0, (3, 4)  # odd seeds: GPS seconds of week; even: ISO GPS stamps
 TO_RAD = {"deg": math.pi / 180.0, "rad": 1.0, "mil": 2.0 * math.pi / 6400.0}
 KINDS = [k for k in MULTI_KINDS if k != "scale"]  # scale: test_simulate_scale.py
+PLOT_SENSORS = ("SR1", "PA1", "PF1")  # plots: no track_id (surveillance, phased array, feed)
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
@@ -80,8 +84,12 @@ class Run:
 
     def site_rae(self, sid: str, tid: str, t: np.ndarray) -> np.ndarray:
         """(M, 3) true range (m), azimuth, elevation (rad) of object tid from a fixed site."""
+        return self.rae_from(self.sensor[sid]["site"], tid, t)
+
+    def rae_from(self, site: dict, tid: str, t: np.ndarray) -> np.ndarray:
+        """(M, 3) true range (m), azimuth, elevation (rad) of object tid from ``site`` (lat,
+        lon, height)."""
         x = self.o_ecef + self.pos(tid, t) @ self.o_rot
-        site = self.sensor[sid]["site"]
         d = x - ecef(site["lat"], site["lon"], site["height"])
         enu = d @ enu_basis(site["lat"], site["lon"])[0].T
         return np.column_stack((np.linalg.norm(d, axis=1),
@@ -144,7 +152,7 @@ def test_files_parse_with_rangeproc_reader(run):
         if s.kind in ("radar", "theodolite"):
             assert log.n_read == len(run.labels(s.id)), s.id
             assert log.track_id is not None, s.id
-            if s.id == "SR1":  # plots: every track_id cell empty
+            if s.id in PLOT_SENSORS:  # plots: every track_id cell empty
                 assert np.all(log.track_id == -1)
             else:
                 assert np.all(log.track_id >= 0), s.id
@@ -192,7 +200,7 @@ def test_association_maps_rows_to_true_object(run):
                 zo = np.nanmax(run.normalised(sid, df.iloc[rows], t[rows], other), axis=1)
                 assert np.mean(zo < 6.0) < 0.5, (sid, tid, other)
         wild = lab["wild"].to_numpy() == 1
-        assert wild.sum() >= 1 or sid == "SR1", sid
+        assert wild.sum() >= 1 or sid in PLOT_SENSORS, sid
 
 
 def test_same_seed_identical_files(root):
@@ -323,8 +331,180 @@ def test_surveillance_plots_and_clutter(root):
         az = r.measured_rae("SR1", df)[:, 1]
         wraps = np.sum(np.diff(az) < -math.pi)
         assert abs(wraps - scans) <= 2
+        assert is_rotating(t, az)  # (the plot tracker's test: the kinds below fail it)
         tracked = {s for s in r.labels("R1")["target_id"]}
         assert 1 <= len(tracked) <= 2
+
+
+def _spec(kind: str, seed: int, sid: str, duration: float = DUR) -> ms.Sensor:
+    """The drawn parameters of sensor ``sid`` (revisit, periods, phases, sites: not in the
+    contract's scenario.toml)."""
+    sc = draw_multi(kind, seed, duration)
+    (spec,) = [s for s in sc.sensors if s.sid == sid]
+    return spec
+
+
+def _backward_share(az: np.ndarray) -> float:
+    """Share of consecutive rows whose azimuth (rad) steps backwards (by less than a half
+    turn: a wrap forward past north is not a step back)."""
+    return float(np.mean(np.mod(np.diff(az), 2 * math.pi) > math.pi))
+
+
+def test_phased_array_plots_in_no_azimuth_order(root):
+    """PA1: plots (no track_id) of every object about every revisit (2 s) on the object's own
+    schedule, rows jumping between objects (not a rotating radar's sweep: ``is_rotating``
+    says no), each with its own time stamp; Poisson clutter at random times."""
+    for seed in (1, 2):
+        (r,) = _runs(root, "phased-array", (seed,))
+        spec = _spec("phased-array", seed, "PA1")
+        assert isinstance(spec, ms.PhasedArray) and spec.revisit == 2.0
+        df, t = r.read("PA1")
+        lab = r.labels("PA1")
+        assert r.sensor["PA1"]["kind"] == "radar" and "SR1" not in r.sensor
+        assert df["track_id"].isna().all()
+        assert np.all(np.diff(t) >= 0)  # sorted by time ...
+        assert np.unique(t).size >= 0.99 * t.size  # ... each plot its own stamp
+        az = r.measured_rae("PA1", df)[:, 1]
+        assert not is_rotating(t, az)
+        assert _backward_share(az) > 0.3
+        objects = lab["target_id"].to_numpy()
+        labelled = objects[lab["target_id"].notna().to_numpy()]
+        assert np.mean(labelled[1:] != labelled[:-1]) > 0.5  # consecutive plots jump objects
+        assert 3 <= len(r.ids) <= 5 and set(labelled) == set(r.ids)
+        phases = []
+        for tid in r.ids:
+            mine = t[objects == tid]
+            step = np.diff(mine)
+            assert abs(np.median(step) - spec.revisit) < 0.2 * spec.revisit, (tid, step)
+            assert step.min() > (1 - 2 * spec.jitter) * spec.revisit - 1e-6, tid
+            assert mine.size > 0.75 * (DUR / spec.revisit), tid  # Pd 0.9, always in coverage
+            phases.append(np.mod(mine - r.truth["time"].min(), spec.revisit))
+        # the objects' schedules differ (own phase): not all on one common grid
+        centre = np.array([np.angle(np.mean(np.exp(2j * math.pi * ph / spec.revisit)))
+                           for ph in phases])
+        assert np.abs(np.angle(np.exp(1j * (centre[:, None] - centre)))).max() > 0.2
+        clutter = lab["target_id"].isna().to_numpy()
+        expected = spec.clutter * DUR / spec.revisit
+        assert 0.8 * expected < clutter.sum() < 1.2 * expected
+        assert np.all(lab["wild"][clutter] == 0)
+        for tid in r.ids:  # clutter does not sit on any object
+            z = np.nanmax(r.normalised("PA1", df[clutter], t[clutter], tid), axis=1)
+            assert np.mean(z < 6.0) < 0.01
+        # the labels are right: within 6 sigma of the true object (wild rows aside) ...
+        ok = ~clutter & (lab["wild"].to_numpy() == 0)
+        for tid in r.ids:
+            rows = ok & (objects == tid)
+            assert np.nanmax(r.normalised("PA1", df[rows], t[rows], tid)) < 6.0, tid
+        # ... and the sigmas are the declared ones (not smaller, not larger)
+        z = np.vstack([r.normalised("PA1", df[ok & (objects == k)], t[ok & (objects == k)], k)
+                       for k in r.ids])
+        rms = np.sqrt(np.nanmean(z**2, axis=0))
+        assert np.all((rms > 0.8) & (rms < 1.2)), rms
+
+
+def _on_sweep(t: np.ndarray, az: np.ndarray, t0: float, radar: ms.Surveillance,
+              tol: float = 1e-5) -> np.ndarray:
+    """(M,) bool: time t (s) is when ``radar``'s beam points at azimuth az (rad, at its site):
+    t = t0 + phase + period (k + az / 2 pi) for an integer k (within tol of a turn; the
+    file's 1 us stamps and the truth interpolation are good to 1e-7)."""
+    u = (t - t0 - radar.phase) / radar.period - az / (2 * math.pi)
+    return np.abs(u - np.round(u)) < tol
+
+
+def _reference_to_site(ref: dict, site: dict, rae: np.ndarray) -> np.ndarray:
+    """(M,) azimuth (rad) from ``site`` of points at range, azimuth, elevation ``rae`` (M, 3)
+    from ``ref`` (both lat, lon, height), through pyproj's ECEF."""
+    r, az, el = rae.T
+    enu = np.column_stack((r * np.cos(el) * np.sin(az), r * np.cos(el) * np.cos(az),
+                           r * np.sin(el)))
+    x = ecef(ref["lat"], ref["lon"], ref["height"])[0] + enu @ enu_basis(ref["lat"],
+                                                                         ref["lon"])[0]
+    d = (x - ecef(site["lat"], site["lon"], site["height"])) @ enu_basis(site["lat"],
+                                                                           site["lon"])[0].T
+    return np.mod(np.arctan2(d[:, 0], d[:, 1]), 2 * math.pi)
+
+
+def test_merged_feed_interleaves_two_radars(root):
+    """PF1: one file of two rotating radars (A, the declared site, every 4 s; B 3-8 km away,
+    every 5 s). Every object plot lies on exactly one radar's sweep (the time its beam points
+    at the object from its own site), both radars see every object, clutter comes from both,
+    every plot is range/azimuth/elevation from A within the radar's sigmas, the declared
+    sigmas cover both radars, and the merged azimuths are not one sweep."""
+    for seed in (1, 2):
+        (r,) = _runs(root, "merged-feed", (seed,))
+        spec = _spec("merged-feed", seed, "PF1")
+        assert isinstance(spec, ms.MergedFeed)
+        a, b = spec.radars
+        assert (a.period, b.period) == (4.0, 5.0) and a.phase != b.phase
+        ref = r.sensor["PF1"]["site"]
+        assert (ref["lat"], ref["lon"], ref["height"]) == (a.site.lat, a.site.lon,
+                                                           a.site.height)
+        site_a = {"lat": a.site.lat, "lon": a.site.lon, "height": a.site.height}
+        site_b = {"lat": b.site.lat, "lon": b.site.lon, "height": b.site.height}
+        sep = np.linalg.norm(ecef(*site_a.values()) - ecef(*site_b.values()))
+        assert 2.5e3 < sep < 8.5e3
+        declared = r.sigmas("PF1")  # the larger of the two radars' sigmas, per component
+        own_a, own_b = (np.array([radar.sigma[k] for k in ("range", "azimuth", "elevation")])
+                        for radar in (a, b))
+        np.testing.assert_allclose(declared, np.maximum(own_a, own_b), rtol=1e-9)
+        df, t = r.read("PF1")
+        lab = r.labels("PF1")
+        assert df["track_id"].isna().all() and np.all(np.diff(t) >= 0)
+        rae = r.measured_rae("PF1", df)
+        assert not is_rotating(t, rae[:, 1]) and _backward_share(rae[:, 1]) > 0.2
+        t0 = r.truth["time"].min()
+        objects = lab["target_id"].to_numpy()
+        wild = lab["wild"].to_numpy() == 1
+        for tid in r.ids:
+            rows = objects == tid
+            tt = t[rows]
+            from_a = _on_sweep(tt, r.rae_from(site_a, tid, tt)[:, 1], t0, a)
+            from_b = _on_sweep(tt, r.rae_from(site_b, tid, tt)[:, 1], t0, b)
+            assert np.all(from_a | from_b), tid
+            assert np.mean(from_a & from_b) < 0.02, tid
+            assert from_a.sum() > 0.7 * DUR / a.period, tid  # Pd 0.9, always in coverage
+            assert from_b.sum() > 0.7 * DUR / b.period, tid
+            # each radar's own lattice: one plot per scan, at its period
+            for radar, mine in ((a, from_a), (b, from_b)):
+                k = np.round((tt[mine] - t0 - radar.phase) / radar.period)
+                assert np.all(np.diff(k) >= 1), (tid, radar.sid)
+            # converted to A's site: within 6 sigma of the object seen from A, with the
+            # radar's own sigmas; far off seen from B's site (a real conversion)
+            ok = ~wild[rows]
+            for radar, own, mine in ((a, own_a, from_a), (b, own_b, from_b)):
+                sel = np.flatnonzero(rows)[mine & ok]
+                for site, fits in ((site_a, True), (site_b, False)):
+                    d = rae[sel] - r.rae_from(site, tid, t[sel])
+                    d[:, 1] = wrap(d[:, 1])
+                    z = np.nanmax(np.abs(d) / own, axis=1)
+                    if fits:
+                        assert z.max() < 6.0, (tid, radar.sid)
+                    else:
+                        assert np.mean(z > 6.0) > 0.9, (tid, radar.sid)
+        # clutter of both radars (no noise): on A's sweep at its azimuth from A, or on B's at
+        # its azimuth from B (converted back through pyproj)
+        clutter = lab["target_id"].isna().to_numpy()
+        assert np.all(lab["wild"][clutter] == 0)
+        c_a = _on_sweep(t[clutter], rae[clutter, 1], t0, a)
+        c_b = _on_sweep(t[clutter], _reference_to_site(ref, site_b, rae[clutter]), t0, b)
+        assert np.all(c_a | c_b)
+        for radar, mine in ((a, c_a), (b, c_b)):
+            expected = radar.clutter * DUR / radar.period
+            assert 0.8 * expected < mine.sum() < 1.2 * expected, radar.sid
+
+
+@pytest.mark.parametrize("kind,sid", [("phased-array", "PA1"), ("merged-feed", "PF1")])
+def test_plot_kinds_same_seed_identical_files(root, kind, sid):
+    a = simulate_multi(root / f"{kind}_same_a", kind=kind, seed=11, duration=60.0).parent
+    b = simulate_multi(root / f"{kind}_same_b", kind=kind, seed=11, duration=60.0).parent
+    c = simulate_multi(root / f"{kind}_same_c", kind=kind, seed=12, duration=60.0).parent
+    names = sorted(p.name for p in a.iterdir())
+    assert names == sorted(p.name for p in b.iterdir())
+    assert {"truth.csv", "truth_association.csv", "truth_events.json", "scenario.toml",
+            "R1.csv", f"{sid}.csv"} <= set(names)
+    for name in names:
+        assert filecmp.cmp(a / name, b / name, shallow=False), name
+    assert not filecmp.cmp(a / f"{sid}.csv", c / f"{sid}.csv", shallow=False)
 
 
 def test_noise_free_measurements_exact(root):
@@ -386,6 +566,11 @@ def test_cli_objects(tmp_path):
         assert res.stderr.startswith("rangeproc: error: simulate: ") and needle in res.stderr
         assert res.stderr.count("\n") == 1
     assert not (tmp_path / "e").exists()
+    # the help names every kind (click may wrap a name at its hyphen)
+    res = runner.invoke(main, ["simulate", "--help"])
+    assert res.exit_code == 0
+    listed = re.sub(r"\s+", "", res.output)
+    assert all(kind in listed for kind in MULTI_KINDS), res.output
     # without --objects: today's single-object scenario, no association truth
     res = runner.invoke(main, ["simulate", str(tmp_path / "s"), "--duration", "20", "-q"])
     assert res.exit_code == 0 and not (tmp_path / "s" / "truth_association.csv").exists()
