@@ -223,6 +223,19 @@ def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[di
     return noise, bias
 
 
+def stated_position_sigma(sensors: tuple[SensorSettings, ...] | list[SensorSettings]
+                          ) -> np.ndarray:
+    """(S, 3) each sensor's stated sigma (SI) of its first three measured components in the
+    order of its measurement model: range, azimuth, elevation (radar, theodolite); east,
+    north, up (GPS: horizontal, horizontal, vertical); NaN where none is stated."""
+    out = np.full((len(sensors), 3), np.nan)
+    for i, s in enumerate(sensors):
+        names = (("horizontal", "horizontal", "vertical") if s.kind == "gps"
+                 else ("range", "azimuth", "elevation"))
+        out[i] = [s.sigma.get(n, np.nan) for n in names]
+    return out
+
+
 def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
     if len(t_used) < 2:
         return []
@@ -275,10 +288,12 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     rows.clear()                                     # the object parts hold the data now
     with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
         fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
+    stated = stated_position_sigma(cfg.sensors)
     with clock.stage("products", len(fused)) as tick:   # tracks, residuals, summaries
         for tid, result in fused:
             track = track_estimate(tid, result, frame, cfg.output.rate_hz,
-                                   max_bridge=BRIDGE_FACTOR * settings.max_gap)
+                                   max_bridge=BRIDGE_FACTOR * settings.max_gap,
+                                   stated=stated)
             tracks.append(track)
             for i in np.unique(result.batch.sensor):
                 i = int(i)

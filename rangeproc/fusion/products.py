@@ -7,6 +7,7 @@ from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.support import supported
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
@@ -51,10 +52,13 @@ def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
 
 
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
-                   rate_hz: float, max_bridge: float = 0.0) -> TrackEstimate:
+                   rate_hz: float, max_bridge: float = 0.0,
+                   stated: np.ndarray | None = None) -> TrackEstimate:
     """The smoothed state on the output grid, with geodetic position and n_sensors; gaps
     between spans up to ``max_bridge`` s are filled by the least-squares fit of
-    ``fusion.bridge``."""
+    ``fusion.bridge``; epochs where the object's own rows reject the trajectory are left out
+    (``fusion.support``; ``stated`` (S, 3): each sensor's stated sigmas of its first three
+    components, ``fusion.support.position_rows``)."""
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -62,6 +66,9 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
+    # none where its own rows reject it
+    keep = supported(t, result.batch, result.used, result.res, stated)
+    t, x, P = t[keep], x[keep], P[keep]
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
@@ -70,9 +77,9 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     prob = {}
     if result.model_prob is not None:
         for j, name in enumerate(result.model_names):
-            p = np.full(t.size, np.nan)
+            p = np.full(filled.size, np.nan)
             p[~filled] = result.model_prob[result.grid][:, j]
-            prob[name] = p
+            prob[name] = p[keep]
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
                          spans=result.spans, model_prob=prob, sensors=names, data_gap=gap)

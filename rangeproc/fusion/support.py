@@ -1,0 +1,104 @@
+"""Where an object's own rows support its trajectory: no output where its rows reject it.
+
+A smoothed trajectory is only as good as the rows that shaped it. When an object's position
+rows stop fitting it (a track that held rows of two things, a sparse plot object whose
+motion model extrapolated a wrong acceleration across a pause), the filter rejects them one
+after the other and carries its prediction on: the estimate then leaves the region the rows
+are in, kilometres away between plots 100 m apart, and its covariance says little about why.
+Such a stretch is not an estimate of the object and is not written.
+
+A *position row* is a row that fixes a position: a GPS row (Cartesian position) or a radar
+row with range and azimuth. It *fits* when every position component it measured was
+accepted by the final pass's gate (``FusionResult.used``) and its smoothed residual lies
+within ``FIT_SIGMAS`` of the row's sigma: a trajectory that fits its rows passes within
+their noise (the smoothed residual's variance is the row's less what the trajectory
+explains), while a trajectory whose process noise grew until rows of several things pass the
+gate accepts rows hundreds of their sigmas away. The sigma is the one the final pass used,
+but at most ``NOISE_CEILING`` times the sensor's stated sigma: the noise estimated from the
+residuals of rows of several things grows with them (kilometres for a 5 m radar), while a
+real noise burst stays within the ceiling. Between two consecutive fitting
+position rows (and before the first, after the last) the trajectory is *unsupported* when
+that stretch holds at least ``MIN_UNFIT_ROWS`` position rows that do not fit and lasts
+longer than ``MIN_UNFIT_SECONDS``: a lone wild point, or a biased sensor's rows interleaved
+with another sensor's fitting ones, leave the trajectory supported; a run of rejections
+with no fitting row among them does not. A stretch with no rows at all is a data gap,
+bridged as before (``fusion.bridge``), its sigma growing honestly. An object without
+position rows (angles or range rates from a given initial state) is supported throughout.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+
+#: A stretch between fitting position rows with at least this many position rows that do not
+#: fit, lasting longer than this many seconds, is unsupported (module docstring).
+MIN_UNFIT_ROWS = 3
+MIN_UNFIT_SECONDS = 5.0
+#: A fitting row's smoothed residual lies within this many of its sigmas in each position
+#: component (a 1e-6 event for a Gaussian residual).
+FIT_SIGMAS = 5.0
+#: The sigma a row is held to is at most this many times its sensor's stated sigma (the
+#: simulator's and the source documents' noise bursts are 10x).
+NOISE_CEILING = 10.0
+
+
+def position_rows(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
+                  stated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(is_position (N,) bool, fits (N,) bool) of the rows of ``batch``: rows that fix a
+    position, and whether every position component they measured was accepted (``used``
+    (N, 6) bool) with its smoothed residual (``res`` (N, 6), the row's units) within
+    ``FIT_SIGMAS`` of its sigma, at most ``NOISE_CEILING`` times ``stated`` (S, 3), the
+    stated sigmas of the first three components per sensor index (NaN: no ceiling)."""
+    z = batch.z
+    cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
+    sph = (batch.model == SPHERICAL) & np.isfinite(z[:, 0]) & np.isfinite(z[:, 1])
+    measured = np.isfinite(z[:, :3])
+    sigma = batch.sigma[:, :3]
+    if stated is not None:
+        ceiling = NOISE_CEILING * stated[batch.sensor]
+        sigma = np.where(np.isfinite(ceiling), np.fmin(sigma, ceiling), sigma)
+    with np.errstate(invalid="ignore"):
+        close = np.abs(res[:, :3]) <= FIT_SIGMAS * sigma
+    accepted = np.where(measured, used[:, :3] & close, True).all(axis=1)
+    is_position = cart | sph
+    return is_position, is_position & accepted
+
+
+def unsupported_stretches(t_rows: np.ndarray, is_position: np.ndarray, fits: np.ndarray
+                          ) -> list[tuple[float, float]]:
+    """The open time intervals (s) where the trajectory is unsupported (module docstring):
+    between consecutive fitting position rows, or before the first / after the last one
+    (-inf / +inf), each holding at least ``MIN_UNFIT_ROWS`` position rows that do not fit
+    and lasting longer than ``MIN_UNFIT_SECONDS``. t_rows: (N,) s ascending."""
+    pos_t = t_rows[is_position]
+    pos_fit = fits[is_position]
+    if pos_t.size == 0 or pos_fit.all():
+        return []
+    edges = np.concatenate([[-np.inf], pos_t[pos_fit], [np.inf]])
+    unfit_t = pos_t[~pos_fit]
+    # stretch k: (edges[k], edges[k + 1]); the unfit rows in each (none lie on an edge time
+    # except at a shared time stamp, counted in the stretch after it)
+    k = np.searchsorted(edges, unfit_t, side="right") - 1
+    out = []
+    for j, n in zip(*np.unique(k, return_counts=True)):
+        lo, hi = float(edges[j]), float(edges[j + 1])
+        inside = unfit_t[k == j]
+        length = (min(hi, float(inside.max())) if np.isinf(hi) else hi) - \
+                 (max(lo, float(inside.min())) if np.isinf(lo) else lo)
+        if n >= MIN_UNFIT_ROWS and length > MIN_UNFIT_SECONDS:
+            out.append((lo, hi))
+    return out
+
+
+def supported(t: np.ndarray, batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
+              stated: np.ndarray | None = None) -> np.ndarray:
+    """(E,) bool: output epochs ``t`` (E,) s outside every unsupported stretch of the rows
+    ``batch`` with the final pass's ``used`` (N, 6) and smoothed residuals ``res`` (N, 6);
+    ``stated`` as for :func:`position_rows` (module docstring)."""
+    is_position, fits = position_rows(batch, used, res, stated)
+    keep = np.ones(t.size, dtype=bool)
+    for lo, hi in unsupported_stretches(batch.t, is_position, fits):
+        keep &= ~((t > lo) & (t < hi))
+    return keep
