@@ -65,7 +65,9 @@ multi: $(STAMP)
 	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS)
 
 ## autoferry: the real Autoferry data (../shared/realdata/autoferry, tools/autoferry.py) through
-## rangeproc and Stone Soup's GNN tracker, scored vs GNSS truth -> bench/autoferry.json.
+## rangeproc (with and without the camera bearings) and Stone Soup's GNN and JPDA trackers (the
+## JPDA limited to 10 min a scenario), scored vs GNSS truth, with the acceptance block
+## -> bench/autoferry.json.
 autoferry: $(STAMP)
 	$(BIN)/python bench/autoferry.py
 
