@@ -146,7 +146,7 @@ def test_every_order_of_plots_is_tracked_object_by_object(form: str) -> None:
     expected = {"rotating": "rotating", "framed": "framed", "phased-array": "free",
                 "merged-feed": "free"}[form]
     assert timing.order == expected
-    label = track_plots(t, p, R, timing.frame, timing.clock)
+    label = track_plots(t, p, R, timing.frame, timing.clock, stamp_sigma=timing.stamp_sigma)
     for j in range(len(STARTS)):
         mine = label[truth == j]
         main = np.bincount(mine[mine >= 0]).argmax()

@@ -102,7 +102,8 @@ def test_plots_stamped_per_scan_are_framed_by_time_stamp() -> None:
     n = t.size
     p, R = plot_positions(r[order], az[order], el[order], np.tile(SIG, (n, 1)),
                           np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)))
-    label = track_plots(t_framed[order], p, R, scan_numbers(t_framed[order], az[order]))
+    label = track_plots(t_framed[order], p, R, scan_numbers(t_framed[order], az[order]),
+                        stamp_sigma=4.0 / np.sqrt(12.0))
     tr = truth[order]
     for j in range(2):
         mine = label[tr == j]
