@@ -75,8 +75,8 @@ def _scored_llr(objects: Objects, seg: Segment, among: list[tuple[int, str]], re
     row of the object is neither evidence for it nor against it (llr 0): there the object's
     trajectory is only bridged, and a bridge's sigma lets the rows of any object nearby
     fit. A declared target's GPS outage of 20 s in a formation otherwise took the tracking
-    radar's rows of the aircraft 100-300 m beside it (formation seed 7: six identity
-    swaps). Rows in an object's gaps are scored when relays are (``relay``), among every
+    radar's rows of the aircraft 100-300 m beside it (identity swaps). Rows in an object's
+    gaps are scored when relays are (``relay``), among every
     object that could continue there.
     """
     out: dict[int, np.ndarray] = {}

@@ -2,8 +2,8 @@
 
 The plot tracker (``tracking.plots``) links plots scan to scan on their own evidence only; where
 two objects fly closer than a few plot sigmas its tracks can swap between them, and a segment
-then holds plots of both (``mixed`` seed 2: a surveillance track with 9 plots of one aircraft
-and 6 of the other). Once the objects exist, every plot of such a sensor (clutter included)
+then holds plots of both (a surveillance track with plots of two aircraft in formation).
+Once the objects exist, every plot of such a sensor (clutter included)
 is scored against each object whose span it lies in (``tracking.score``: the object's state
 carried to the plot time, ``S = H P Hᵀ + R``); within each scan the plots and the objects
 whose chi-square gate (probability ``GATE_PROBABILITY``) they pass are paired by the
@@ -19,8 +19,8 @@ plots, which would otherwise keep winning plots the plot tracker gave it wrongly
 its true plot of the scan, scored against a track drawn to the wrong one, out. An object
 tracked precisely by another sensor thereby takes its own plots back from an object that
 only the surveillance radar sees, and two objects whose plots the plot tracker swapped
-exchange them where the rest of their trajectories tell (``mixed`` seed 7: `U3`, seen by
-the surveillance radar alone, at its true assignment's RMSE).
+exchange them where the rest of their trajectories tell (an object seen by the
+surveillance radar alone comes out at its true assignment's accuracy).
 
 A gated plot must also be likelier the object's than clutter (:func:`clutter_floor`: the
 sensor's own clutter density), and plots of plot tracks that no object took join an object
@@ -107,12 +107,23 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
     maximising the summed log-likelihood ratio over the gated pairs
     (``scipy.optimize.linear_sum_assignment``). Module docstring for the gate.
     """
-    owner = np.full(plots.size, -1, dtype=np.int64)
     if plots.size == 0 or not tracks:
-        return owner, np.zeros(plots.size, dtype=bool)
+        return np.full(plots.size, -1, dtype=np.int64), np.zeros(plots.size, dtype=bool)
+    llr = plot_llr(batch, plots, tracks, scan, member, floor)
+    return assign_per_scan(llr, scan), np.isfinite(llr).any(axis=1)
+
+
+def plot_llr(batch: MeasurementBatch, plots: np.ndarray,
+             tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
+             member: np.ndarray | None = None, floor: np.ndarray | None = None
+             ) -> np.ndarray:
+    """(P, J) log-likelihood ratio of each plot (arguments as :func:`plot_owners`) under each
+    object, -inf outside the object's gate, below ``floor`` (P,) or outside its span."""
+    llr = np.full((plots.size, len(tracks)), -np.inf)
+    if plots.size == 0 or not tracks:
+        return llr
     if floor is None:
         floor = np.full(plots.size, -np.inf)
-    llr = np.full((plots.size, len(tracks)), -np.inf)
     t = batch.t[plots]
     dof = np.isfinite(batch.z[plots, :4]).sum(axis=1)
     gate = np.asarray(chi2_ppf(GATE_PROBABILITY, np.maximum(dof, 1)), dtype=float)
@@ -130,11 +141,10 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
             _, nis, ll = score_rows_left_out(batch, plots[inside], track, left_out)
         ok = (nis <= gate[inside]) & (ll >= floor[inside])
         llr[inside[ok], j] = ll[ok]
-    gated = np.isfinite(llr).any(axis=1)
-    return _assign_per_scan(llr, scan), gated
+    return llr
 
 
-def _assign_per_scan(llr: np.ndarray, scan: np.ndarray) -> np.ndarray:
+def assign_per_scan(llr: np.ndarray, scan: np.ndarray) -> np.ndarray:
     """(P,) owner (column of ``llr`` (P, J), -1 none) of each plot: within each scan
     (``scan`` (P,)) the assignment of plots to objects maximising the summed llr over the
     finite (gated) pairs, each object taking at most one plot."""
@@ -164,8 +174,8 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
 
     An object's trajectory starts with its first rows; where another object held its plot
     track before that (a formation's plot tracks swapping), its earlier plots were taken
-    back from the other object in step 5 and then fitted nothing (``mixed`` seed 2: `U2`'s
-    first five plots, 0.5-16.4 s, before its ship radar's track from 19.4 s). Orphans up
+    back from the other object in step 5 and then fitted nothing (an aircraft's first
+    plots, before another sensor's track of it starts). Orphans up
     to ``EXTEND_SECONDS`` outside a span are scored against the object carried there (its
     covariance growing with its white-jerk noise), assigned per scan as in
     :func:`plot_owners`, and kept while they continue the span without a gap of more than
@@ -197,7 +207,7 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
         _, nis, ll = score_rows(batch, plots[near], track)
         ok = (nis <= gate[near]) & (floor is None or ll >= floor[near])
         llr[near[ok], j] = ll[ok]
-    won = _assign_per_scan(llr, scan)
+    won = assign_per_scan(llr, scan)
     for j, track in enumerate(tracks):
         mine = np.flatnonzero(won == j)
         if mine.size == 0:

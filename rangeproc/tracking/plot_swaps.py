@@ -3,8 +3,8 @@
 The plot tracker (``tracking.plots``) decides each scan on that scan alone. A track's first
 scans are its weakest: until it has a velocity, its prediction is a wide disc, and where
 two objects fly closer than that (a formation, 230 m apart) it may continue one object's
-first plot with the other object's next (``mixed`` seed 10: the formation's first plots;
-seed 9: its first two scans). Each track then holds a head of one object and the rest of
+first plot with the other object's next (a formation's first plot or first two scans).
+Each track then holds a head of one object and the rest of
 the other, and everything built on the tracks inherits the exchange: the heads come before
 any other sensor holds either object, so nothing later corrects them.
 
@@ -18,7 +18,7 @@ constant-velocity filter (the sum of innovation NIS and log det S: minus twice t
 log-likelihood, up to a constant); the likelier wins (a track-oriented MHT of two tracks
 over their first scans, deferred by the window: the GNN committed after one scan). Later
 exchanges are not tested: once the tracks have velocities the tracker's choice is as good
-as this test (mixed seed 10, tried: true and false later exchanges scored alike), and
+as this test (true and false later exchanges score alike), and
 step 5 repairs them where another sensor holds one of the objects.
 """
 from __future__ import annotations

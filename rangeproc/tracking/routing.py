@@ -139,7 +139,8 @@ def association_table(cfg: Config, syn: Synthesis | None,
 
 def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> dict:
     """The summary's ``association``: objects and their segments, the chosen hypothesis'
-    score and the runner-up's (over the searches, summed), and whether the search was exact."""
+    score and the runner-up's (over the searches, summed), whether the search was exact, and
+    per sensor with angle-only plots the share of them associated by line of sight."""
     if syn is None:
         return {"n_segments": 0, "objects": {}, "score": None, "runner_up": None,
                 "exact": True}
@@ -164,4 +165,8 @@ def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> d
             "score": best - min(r.best.score - r.runner_up.score for r in runner),
             "search": int(np.argmin([r.best.score - r.runner_up.score for r in runner]))},
         "exact": all(r.exact for r in syn.searches),
-        "n_searches": len(syn.searches)}
+        "n_searches": len(syn.searches),
+        # camera/theodolite detections without range, joined to objects by line of sight
+        "angle_plots": {sensor_ids[i]: {"n_rows": n, "n_associated": k,
+                                        "fraction_used": k / n if n else None}
+                        for i, (n, k) in sorted(syn.angle_plots.items())}}

@@ -352,8 +352,8 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
 
     A sparse object's smoothed trajectory leans towards each of its own rows, so scored
     against it a row of its own looks better than it is, and a plot that the plot tracker
-    gave it but another object should have had keeps winning (mixed seed 10: ``U3``'s
-    surveillance-only track, 112 m sigma, scored ``U2``'s plot at NIS 0.5). For the same
+    gave it but another object should have had keeps winning (a surveillance-only track of
+    100 m sigma scores its formation partner's plot at a NIS below 1). For the same
     reason a plot competing with the object's own plot of that scan is scored against the
     trajectory without that plot: within a scan every candidate plot of an object then
     meets the same trajectory, one that none of them shaped. The deleted residual of a

@@ -36,16 +36,20 @@
    its plot track's object only where that object is less certain than the plot
    (``_uncertain_at``: a precise object does not keep a plot it cannot gate) and the plot
    is no lone outlier of it (``_isolated_outliers``: a clutter plot taken in a missed scan
-   is not kept). An
-   object whose quick trajectory gates some of its own plots nowhere, while being less
+   is not kept), and never beside another plot of the same scan (``_one_plot_per_frame``).
+   An object whose quick trajectory gates some of its own plots nowhere, while being less
    certain than those plots there, is re-estimated with a refinement pass
    (``_doubtful``, ``Objects.refined_track``), and the plots no object gated are associated
-   again against the refined trajectories (the others keep their first association: a
-   refined surveillance-only track dropped two plots it had gated in surveillance seed 5).
-   Where the plots alone range the object (between another radar's and an angle-only
-   theodolite's rows) the first pass is badly linearised, 1.8 km off with a 363 m sigma in
-   mixed seed 7, and lost three of the object's plots to clutter.
-6. What is left is unassigned, with the reason.
+   again against the refined trajectories (the others keep their first association). Where
+   the plots alone range an object (between another radar's and an angle-only
+   theodolite's rows) the quick trajectory's single pass can be badly linearised, kilometres
+   off with a wide sigma, and lose the object's own plots to clutter.
+6. **Angle-only plots** (``tracking.angle_plots``): camera and theodolite detections without
+   range and without ``track_id`` go, frame by frame, to the object whose line of sight they
+   fit, where that object is already known across it and no other object fits nearly as
+   well (their own clutter floor: the sensor's detections per frame over the sector they
+   span); the share used is in the summary.
+7. What is left is unassigned, with the reason.
 
 Objects used for scoring are estimated by the centralised smoother without refinement
 passes, registration or refraction (a quick, robust trajectory); the final estimate of every
@@ -59,12 +63,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows
 from rangeproc.fusion.centralised import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
 from rangeproc.quantiles import chi2_ppf
+from rangeproc.tracking.angle_plots import angle_owners
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.links import conflicts, score_links
 from rangeproc.tracking.objects import (
@@ -92,7 +98,7 @@ from rangeproc.tracking.relay import (
     relay_lone_objects,
     stitch,
 )
-from rangeproc.tracking.score import ObjectTrack, score_rows_left_out
+from rangeproc.tracking.score import ObjectTrack, score_rows, score_rows_left_out
 from rangeproc.tracking.segments import segment_track
 
 log = logging.getLogger(__name__)
@@ -116,8 +122,8 @@ ANCHOR_COST = 4
 #: A plot no object gates stays with its plot track's object (less certain than the plot
 #: there) unless it is a lone outlier of that object (``_isolated_outliers``): outside this
 #: chi-square probability of it, scored as left out, while its neighbours are inside. A
-#: clutter plot the plot tracker took in a missed scan (surveillance seed 6: NIS 100 against
-#: its own object, 108 m RMSE against 76 m) is not kept.
+#: clutter plot the plot tracker took in a missed scan (NIS 100 against its own object) is
+#: not kept.
 KEEP_PROBABILITY = 1.0 - 1e-6
 
 #: ``reason`` values of the association table.
@@ -133,7 +139,8 @@ class Synthesis:
     """The outcome: ``members`` object id -> [(sensor index, row indices)], in object order
     (declared first, then discovered); ``segment_object`` segment id -> object id or None;
     per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
-    SensorRows; the hypothesis searches run (``searches``); ids of discovered objects."""
+    SensorRows; the hypothesis searches run (``searches``); ids of discovered objects;
+    per sensor index with angle-only plots, (their rows, those associated) (step 6)."""
 
     members: dict[str, list[tuple[int, np.ndarray]]]
     segments: list[Segment]
@@ -143,6 +150,7 @@ class Synthesis:
     row_reason: dict[int, np.ndarray]
     searches: list[SearchResult] = field(default_factory=list)
     discovered: tuple[str, ...] = ()
+    angle_plots: dict[int, tuple[int, int]] = field(default_factory=dict)
 
 
 def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
@@ -188,9 +196,11 @@ def sensor_segments(sensor: int, rows: SensorRows
             z = rows.z[ranged]
             p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3],
                                   rows.s[ranged], rows.Qr[ranged])
-            timing = plot_timing(rows.t[ranged], z[:, 1], p, R)
+            planar = bool(np.median(rows.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
+            timing = plot_timing(rows.t[ranged], z[:, 1], p, R, planar)
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
-                                 track_plots(rows.t[ranged], p, R, timing.frame, timing.clock))
+                                 track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
+                                             planar, timing.stamp_sigma))
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, plot=True)
@@ -335,6 +345,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                                     timings)
     # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
     discovered = [k for k in discovered if objects.members.get(k)]
+    angle_owner = _associate_angle_plots(objects, [*anchored, *discovered], angle_plots)
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
                if k in names and objects.members.get(k)}
@@ -344,15 +355,22 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
             segment_object[s.id] = names.get(key)
     row_object, row_segment, row_reason = _row_tables(rows, kinds, final, segment_object,
                                                       clutter, angle_plots)
+    for i, (plots, keys) in angle_owner.items():             # step 6: by line of sight
+        owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
+        row_object[i][plots] = owner
+        row_reason[i][plots] = np.where(owner != "", ASSOCIATED, ANGLE_PLOT)
     for i, (plots, keys) in plot_owner.items():              # step 5: plot by plot
         owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
         row_object[i][plots] = owner
         row_reason[i][plots] = np.where(owner != "", ASSOCIATED,
                                         np.where(np.isin(plots, clutter.get(i, [])), CLUTTER,
                                                  NO_OBJECT))
+    angle_used = {i: (int(rows.size), int(sum(bool(k) for k in keys)))
+                  for i, (rows, keys) in angle_owner.items()}
     return Synthesis(members, final, segment_object, row_object, row_segment, row_reason,
                      searches=searches,
-                     discovered=tuple(names[k] for k in discovered if k in names))
+                     discovered=tuple(names[k] for k in discovered if k in names),
+                     angle_plots=angle_used)
 
 
 def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
@@ -402,8 +420,55 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
         owner = np.where(gated, owner, np.where(keep, before, -1))
         owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], frame, owner,
                                np.isin(rows, np.concatenate(parts)), floor, timing.revisit)
+        owner = _one_plot_per_frame(objects, keys, batch, rows, owner, gated, frame)
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
+    return out
+
+
+def _associate_angle_plots(objects: Objects, keys: list[str],
+                           angle_plots: Mapping[int, np.ndarray]
+                           ) -> dict[int, tuple[np.ndarray, list[str]]]:
+    """Step 6: every angle-only plot (a camera's or theodolite's detection without range)
+    goes to the object whose line of sight it fits (``tracking.angle_plots``); the
+    memberships change accordingly. Returns sensor -> (rows, the key of each one's object
+    or "")."""
+    keys = [k for k in keys if k in objects.tracks]
+    out: dict[int, tuple[np.ndarray, list[str]]] = {}
+    for i, rows in angle_plots.items():
+        if rows.size == 0 or not keys:
+            continue
+        batch = as_batch(objects.rows[i], objects.sensor_ids, i)
+        owner = angle_owners(batch, rows, [objects.tracks[k] for k in keys])
+        objects.members = reassign_members(objects.members, i, rows, owner, keys)
+        out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
+    return out
+
+
+def _one_plot_per_frame(objects: Objects, keys: list[str], batch: MeasurementBatch,
+                        rows: np.ndarray, owner: np.ndarray, gated: np.ndarray,
+                        frame: np.ndarray) -> np.ndarray:
+    """``owner`` (P,) (index into ``keys``, -1 none, of the object each plot row ``rows`` goes
+    to) with at most one plot per object and frame (``frame`` (P,)): an object is one
+    reflector, seen once per scan. Where an object holds several plots of one frame (a plot
+    its plot track gave it that no object gated, beside the plot the per-frame assignment
+    gave it), the gated plot stays (``gated`` (P,)), else the one likelier under the
+    object's trajectory; the others are unassigned."""
+    out = owner.copy()
+    held = np.flatnonzero(out >= 0)
+    if held.size == 0:
+        return out
+    pair = out[held].astype(np.int64) * (int(frame.max()) + 1) + frame[held]
+    uniq, inverse, count = np.unique(pair, return_inverse=True, return_counts=True)
+    for g in np.flatnonzero(count > 1):
+        idx = held[inverse == g]
+        track = objects.tracks.get(keys[int(out[idx[0]])])
+        score = np.where(gated[idx], np.inf, 0.0)
+        if track is not None and track.t.size:
+            _, _, ll = score_rows(batch, rows[idx], track)
+            score = score + np.nan_to_num(ll, nan=-np.inf)
+        keep = idx[int(np.argmax(score))]
+        out[idx[idx != keep]] = -1
     return out
 
 

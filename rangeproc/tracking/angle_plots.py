@@ -1,0 +1,108 @@
+"""Angle-only plots (camera and theodolite detections without ``track_id``) joined to objects
+by line of sight.
+
+An EO/IR camera or a theodolite that reports detections rather than a track (several per
+frame, other objects and clutter among them) gives bearings, sometimes elevations, and no
+range: such a row can start no track, but once the objects exist it says where an object is
+across its line of sight, often many times a second. Each such row is scored against every
+object's quick trajectory carried to the row's time (``tracking.score``: the row's predicted
+angles and their variance, the object's uncertainty included) and, frame by frame (the rows
+sharing one time stamp: a camera frame), the rows and the objects whose chi-square gate
+(``plot_association.GATE_PROBABILITY``) they pass are paired by the assignment of the
+largest summed log-likelihood ratio, as the ranged plots are (``plot_association``): an
+object is detected at most once per frame, a detection goes to at most one object. A line of
+sight carries no range, so a detection is taken only where it is unambiguous: its
+log-likelihood ratio under the best object exceeds that under any other by
+``AMBIGUITY_NATS`` (two boats a few degrees apart seen from one camera give no detection to
+either, rather than half of them to the wrong one), and only to an object already known
+across the line of sight (:func:`localised`: its own bearing sigma, from its position
+covariance, within ``LOCALISED_SIGMAS`` of the detection's): a line of sight refines where
+an object is, it cannot say where an object nobody ranged has gone (an object carried beyond
+its rows gates every detection in a wide sector).
+
+A detection must also be likelier the object's than clutter (:func:`angle_clutter_floor`):
+the sensor's own clutter density is its detections per frame over the azimuth sector (and
+elevation band) they span, every detection counted as clutter (the objects give at most a
+few of them). A wide object uncertainty therefore cannot take the best of a frame's clutter.
+The rows then join their object's rows and are fused with them (measurement-level fusion:
+the angles of the row, its own sigmas, the sensor's platform geometry).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import AZIMUTH
+from rangeproc.tracking.plot_association import assign_per_scan, plot_llr
+from rangeproc.tracking.score import (
+    EXTENT_SPHERICAL,
+    OUTLIER_PROBABILITY,
+    ObjectTrack,
+    mixture_llr,
+)
+
+ELEVATION = 2
+#: A detection goes to its best object only when it is this many nats (log-likelihood ratio)
+#: likelier there than under any other object (a factor of 100).
+AMBIGUITY_NATS = float(np.log(100.0))
+#: A detection may go to an object whose bearing sigma is at most this many of its own.
+LOCALISED_SIGMAS = 3.0
+
+
+def localised(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack) -> np.ndarray:
+    """(P,) bool: the object ``track``, at its epoch nearest each row of ``rows`` (P,), is
+    known across the row's line of sight to within ``LOCALISED_SIGMAS`` of the row's
+    azimuth sigma: the horizontal position variance across the line of sight from the
+    sensor (``batch.s``), over the squared horizontal range."""
+    k = np.clip(np.searchsorted(track.t, batch.t[rows]), 0, track.t.size - 1)
+    d = track.x[k, :2] - batch.s[rows, :2]                              # (P, 2) m
+    rng = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-3)
+    across = np.column_stack([-d[:, 1], d[:, 0]]) / rng[:, None]
+    var = np.einsum("pi,pij,pj->p", across, track.P[k, :2, :2], across)
+    return np.sqrt(np.maximum(var, 0.0)) / rng <= LOCALISED_SIGMAS * batch.sigma[rows, AZIMUTH]
+
+
+def angle_clutter_floor(batch: MeasurementBatch, rows: np.ndarray, frame: np.ndarray
+                        ) -> np.ndarray:
+    """(P,) the log-likelihood ratio (``tracking.score``) each angle-only row of ``rows``
+    (P,) must reach against an object to be likelier the object's than clutter: the
+    sensor's detections per frame (``frame`` (P,)) spread uniformly over the azimuth sector
+    they span (the turn less its widest empty sector) and, for rows with elevation, the
+    elevation band; the score's unrelated density is uniform over ``EXTENT_SPHERICAL``, so
+    the floor is the mixture llr of ``log density + log extent`` (module docstring)."""
+    if rows.size == 0:
+        return np.zeros(0)
+    z = batch.z[rows]
+    per_frame = rows.size / max(np.unique(frame).size, 1)
+    az = np.sort(np.mod(z[:, AZIMUTH], 2 * np.pi))
+    gaps = np.diff(np.concatenate([az, az[:1] + 2 * np.pi]))
+    sector = max(2 * np.pi - float(gaps.max()), 1e-6)
+    log_ext = np.log(EXTENT_SPHERICAL)
+    flat = np.log(per_frame) - np.log(sector) + log_ext[AZIMUTH]
+    elevated = np.isfinite(z[:, ELEVATION])
+    band = float(np.ptp(z[elevated, ELEVATION])) if elevated.sum() > 1 else 0.0
+    with_el = flat + (log_ext[ELEVATION] - np.log(band) if band > 0.0 else 0.0)
+    return np.where(elevated & (band > 0.0), mixture_llr(with_el, OUTLIER_PROBABILITY),
+                    mixture_llr(flat, OUTLIER_PROBABILITY))
+
+
+def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
+                 tracks: Sequence[ObjectTrack | None]) -> np.ndarray:
+    """(P,) index into ``tracks`` of the object each angle-only row ``rows`` (P,) of one
+    sensor's ``batch`` goes to, -1 for none (module docstring)."""
+    if rows.size == 0 or not tracks:
+        return np.full(rows.size, -1, dtype=np.int64)
+    frame = np.unique(batch.t[rows], return_inverse=True)[1].astype(np.int64).ravel()
+    floor = angle_clutter_floor(batch, rows, frame)
+    llr = plot_llr(batch, rows, tracks, frame, None, floor)
+    for j, track in enumerate(tracks):
+        if track is not None and track.t.size:
+            llr[~localised(batch, rows, track), j] = -np.inf
+    if llr.shape[1] > 1:                      # only where one object stands out
+        top2 = -np.sort(-llr, axis=1)[:, :2]
+        with np.errstate(invalid="ignore"):
+            clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
+        llr[~clear] = -np.inf
+    return assign_per_scan(llr, frame)
