@@ -35,7 +35,8 @@ section 2). They are tracked per sensor in the range ENU frame:
     without the plot itself, shrunk toward the sensor-wide density with the weight of
     ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
     same cells scan after scan, so tracks there need far stronger evidence than tracks in
-    open water or open sky.
+    open water or open sky; cells with plots in most scans are reported as stationary
+    returns (:func:`stationary_returns`).
   - *Existence* (the track score, a sequential probability ratio test): each plot a track
     takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
     ``log(1 - PD)`` (``DETECTION_PROBABILITY``); a track is confirmed when its score reaches
@@ -117,6 +118,10 @@ DELETE_DROP = float(-MAX_MISSES * np.log1p(-DETECTION_PROBABILITY))
 #: shrunk toward the sensor-wide mean with the weight of this many cells (a Gamma prior).
 CLUTTER_CELL_SIGMAS = 3.0
 CLUTTER_PRIOR_CELLS = 1.0
+#: A clutter-map cell with plots in at least this share of the scans is reported as a
+#: stationary return (a moving object crosses a cell in a few scans); at most this many.
+STATIONARY_SHARE = 0.5
+STATIONARY_MAX = 50
 #: Plots come in frames when at least this share of them share a time stamp with another.
 FRAMED_SHARE = 0.5
 #: A rotating radar: at least this many turns, at most this many seconds per turn.
@@ -376,6 +381,20 @@ def update_track(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.
     tr.rows.append(row)
 
 
+def _clutter_cells(p: np.ndarray, R: np.ndarray, planar: bool
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The clutter map's cells of plots p (N, 3) ENU m with covariances R (N, 3, 3): cell of
+    each plot (N,) (an index into the occupied cells), plots per occupied cell, and the cell
+    size (axes,) m: ``CLUTTER_CELL_SIGMAS`` median plot sigmas along east, north and (unless
+    ``planar``) up."""
+    axes = 2 if planar else 3
+    sig = np.sqrt(np.maximum(np.einsum("nii->ni", R)[:, :axes], 1e-12))
+    cell = CLUTTER_CELL_SIGMAS * np.median(sig, axis=0)                 # (axes,) m
+    index = np.floor(p[:, :axes] / cell).astype(np.int64)
+    _, inverse, counts = np.unique(index, axis=0, return_inverse=True, return_counts=True)
+    return inverse.ravel(), counts, cell
+
+
 def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool
                     ) -> np.ndarray:
     """(N,) the clutter density (plots per scan per m^2, or per m^3 unless ``planar``) at each
@@ -387,17 +406,40 @@ def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool
     axes = 2 if planar else 3
     if p.shape[0] == 0:
         return np.zeros(0)
-    sig = np.sqrt(np.maximum(np.einsum("nii->ni", R)[:, :axes], 1e-12))
-    cell = CLUTTER_CELL_SIGMAS * np.median(sig, axis=0)                 # (axes,) m
+    inverse, counts, cell = _clutter_cells(p, R, planar)
     volume = float(np.prod(cell))
-    index = np.floor(p[:, :axes] / cell).astype(np.int64)
-    _, inverse, counts = np.unique(index, axis=0, return_inverse=True, return_counts=True)
     box = float(np.prod(np.ptp(p[:, :axes], axis=0) + cell))
     mean_count = p.shape[0] * volume / box                    # the sensor-wide mean per cell
     n = max(float(n_scans), 1.0)
-    others = counts[inverse.ravel()] - 1.0                     # the plot itself left out
+    others = counts[inverse] - 1.0                             # the plot itself left out
     return (others + CLUTTER_PRIOR_CELLS * mean_count) / \
         ((1.0 + CLUTTER_PRIOR_CELLS) * n * volume)
+
+
+def stationary_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool
+                       ) -> list[dict[str, float]]:
+    """The clutter map's cells that hold plots in at least ``STATIONARY_SHARE`` of the scans:
+    quays, moored boats, shore and other stationary returns, which the track score treats as
+    clutter. Each {"e", "n", "u": the mean position of its plots (range ENU m), "share": the
+    share of the scans (revisits) with a plot there, "plots": its plots}, most persistent
+    first, at most ``STATIONARY_MAX`` of them. Arguments as :func:`clutter_density`, with
+    ``scan`` (N,) the plots' scans (:attr:`PlotTiming.scan`)."""
+    usable = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
+    p, R, scan = p[usable], R[usable], np.asarray(scan)[usable]
+    n_scans = np.unique(scan).size
+    if n_scans == 0:
+        return []
+    inverse, counts, _ = _clutter_cells(p, R, planar)
+    scans_in = np.array([np.unique(scan[inverse == c]).size for c in range(counts.size)])
+    share = scans_in / n_scans
+    out = []
+    for c in np.argsort(-share, kind="stable"):
+        if share[c] < STATIONARY_SHARE or len(out) >= STATIONARY_MAX:
+            break
+        mean = p[inverse == c].mean(axis=0)
+        out.append({"e": float(mean[0]), "n": float(mean[1]), "u": float(mean[2]),
+                    "share": float(share[c]), "plots": int(counts[c])})
+    return out
 
 
 @dataclass(slots=True)

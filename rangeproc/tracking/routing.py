@@ -139,8 +139,9 @@ def association_table(cfg: Config, syn: Synthesis | None,
 
 def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> dict:
     """The summary's ``association``: objects and their segments, the chosen hypothesis'
-    score and the runner-up's (over the searches, summed), whether the search was exact, and
-    per sensor with angle-only plots the share of them associated by line of sight."""
+    score and the runner-up's (over the searches, summed), whether the search was exact,
+    per sensor with angle-only plots the share of them associated by line of sight, and per
+    plot sensor its stationary returns."""
     if syn is None:
         return {"n_segments": 0, "objects": {}, "score": None, "runner_up": None,
                 "exact": True}
@@ -169,4 +170,7 @@ def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> d
         # camera/theodolite detections without range, joined to objects by line of sight
         "angle_plots": {sensor_ids[i]: {"n_rows": n, "n_associated": k,
                                         "fraction_used": k / n if n else None}
-                        for i, (n, k) in sorted(syn.angle_plots.items())}}
+                        for i, (n, k) in sorted(syn.angle_plots.items())},
+        # quays, moored boats, shore: places with plots in most scans (range ENU m)
+        "stationary_returns": {sensor_ids[i]: cells
+                               for i, cells in sorted(syn.stationary.items())}}

@@ -92,6 +92,7 @@ from rangeproc.tracking.plots import (
     plot_positions,
     plot_timing,
     several_objects,
+    stationary_returns,
     track_plots,
 )
 from rangeproc.tracking.relay import (
@@ -140,7 +141,8 @@ class Synthesis:
     (declared first, then discovered); ``segment_object`` segment id -> object id or None;
     per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
     SensorRows; the hypothesis searches run (``searches``); ids of discovered objects;
-    per sensor index with angle-only plots, (their rows, those associated) (step 6)."""
+    per sensor index with angle-only plots, (their rows, those associated) (step 6); per plot
+    sensor index, its stationary returns (``tracking.plots.stationary_returns``)."""
 
     members: dict[str, list[tuple[int, np.ndarray]]]
     segments: list[Segment]
@@ -151,6 +153,7 @@ class Synthesis:
     searches: list[SearchResult] = field(default_factory=list)
     discovered: tuple[str, ...] = ()
     angle_plots: dict[int, tuple[int, int]] = field(default_factory=dict)
+    stationary: dict[int, list[dict[str, float]]] = field(default_factory=dict)
 
 
 def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
@@ -367,10 +370,12 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                                                  NO_OBJECT))
     angle_used = {i: (int(rows.size), int(sum(bool(k) for k in keys)))
                   for i, (rows, keys) in angle_owner.items()}
+    stationary = {i: _stationary(rows[i], ranged, timing)
+                  for i, (ranged, timing) in timings.items()}
     return Synthesis(members, final, segment_object, row_object, row_segment, row_reason,
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names),
-                     angle_plots=angle_used)
+                     angle_plots=angle_used, stationary=stationary)
 
 
 def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
@@ -424,6 +429,17 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
+
+
+def _stationary(rows: SensorRows, ranged: np.ndarray, timing: PlotTiming
+                ) -> list[dict[str, float]]:
+    """The stationary returns of one plot sensor's ranged plots ``ranged`` (indices into
+    ``rows``) with their ``timing`` (``tracking.plots.stationary_returns``)."""
+    z = rows.z[ranged]
+    p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3], rows.s[ranged],
+                          rows.Qr[ranged])
+    planar = bool(np.median(rows.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
+    return stationary_returns(p, R, timing.scan, planar)
 
 
 def _associate_angle_plots(objects: Objects, keys: list[str],

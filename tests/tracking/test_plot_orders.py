@@ -10,6 +10,7 @@ from rangeproc.tracking.plots import (
     plot_positions,
     plot_timing,
     several_objects,
+    stationary_returns,
     track_plots,
 )
 
@@ -202,3 +203,24 @@ def test_angle_only_rows_jumping_between_objects_are_plots_one_line_of_sight_is_
     assert several_objects(t, many, *axes)
     many[:, 2] = np.nan                                        # bearings alone
     assert several_objects(t, many, *axes)
+
+
+def test_a_fixed_reflector_is_reported_as_a_stationary_return_moving_objects_are_not() -> None:
+    t, z, truth = rotating(seed=3)
+    quay = np.array([5_000.0, -3_000.0, 50.0])               # a return in every scan
+    tq = np.arange(0.0, SPAN, 4.0) + polar(quay[None], np.zeros(3))[0, 1] / (2 * np.pi) * 4.0
+    zq = polar(np.tile(quay, (tq.size, 1)), np.zeros(3))
+    zq = zq + np.random.default_rng(9).normal(size=zq.shape) * SIG
+    t = np.concatenate([t, tq])
+    order = np.argsort(t, kind="stable")
+    t, z = t[order], np.vstack([z, zq])[order]
+    p, R = positions(z)
+    timing = plot_timing(t, z[:, 1], p, R)
+    returns = stationary_returns(p, R, timing.scan, planar=False)
+    assert len(returns) >= 1
+    top = returns[0]
+    assert np.hypot(top["e"] - quay[0], top["n"] - quay[1]) < 100.0
+    assert top["share"] >= 0.5             # a cell boundary may split its plots
+    # the moving objects pass through cells in a scan or two: none of them is stationary
+    for r in returns:
+        assert np.hypot(r["e"] - quay[0], r["n"] - quay[1]) < 300.0
