@@ -1,7 +1,7 @@
 """Objects under construction in track synthesis: segments, member rows, quick trajectories.
 
 A :class:`Segment` is a run of one sensor's rows that follow one object
-(``tracking.segments``, ``tracking.plots``); :class:`Objects` holds each object's member
+(``tracking.segments``, ``tracking.plot_tracker``); :class:`Objects` holds each object's member
 rows and its quick trajectory, the centralised smoother without refinement passes,
 registration or refraction, on at most ``QUICK_ROWS_PER_SENSOR`` rows per sensor, against
 which segments are scored (``tracking.score``).

@@ -1,6 +1,6 @@
 """Two new plot tracks that took each other's objects: a two-track test over their first scans.
 
-The plot tracker (``tracking.plots``) decides each scan on that scan alone. A track's first
+The plot tracker (``tracking.plot_tracker``) decides each scan on that scan alone. A track's first
 scans are its weakest: until it has a velocity, its prediction is a wide disc, and where
 two objects fly closer than that (a formation, 230 m apart) it may continue one object's
 first plot with the other object's next (a formation's first plot or first two scans).
@@ -64,7 +64,7 @@ def repair_heads(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                  label: np.ndarray) -> np.ndarray:
     """``label`` (N,) (the plot tracker's: track number, -1 clutter) with the exchanges of
     two young tracks' heads undone (module docstring). t (N,) s, p (N, 3) ENU m,
-    R (N, 3, 3) m^2, scan (N,) as for ``tracking.plots.track_plots``."""
+    R (N, 3, 3) m^2, scan (N,) as for ``tracking.plot_tracker.track_plots``."""
     label = label.copy()
     tracked = np.flatnonzero(label >= 0)
     if tracked.size == 0:

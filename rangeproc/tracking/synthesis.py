@@ -1,10 +1,10 @@
 """Track synthesis: from every sensor's rows to the rows of each object (seed 003).
 
-1. **Segments** (``tracking.segments``, ``tracking.plots``): every radar/theodolite track is
-   cut where it jumped to another object or paused. Plots without ``track_id`` of a rotating
-   radar go through the plot tracker (clutter is left out; its plots without range cannot be
-   tracked alone and stay unassigned); those of an instrument that follows one object at a
-   time (no azimuth sweep) are segmented as one track.
+1. **Segments** (``tracking.segments``, ``tracking.plots``, ``tracking.plot_tracker``): every
+   radar/theodolite track is cut where it jumped to another object or paused. Plots (rows
+   without ``track_id``, in any order) go through the plot tracker (clutter is left out; plots
+   without range cannot be tracked alone, step 6 takes them); rows without ``track_id`` of an
+   instrument that follows one object at a time are segmented as one track.
 2. **Anchored objects**: each declared target carrying GPS (or MISTRAM) starts as the
    trajectory of those rows alone: they name the object (DATA_CONTRACT: GPS and MISTRAM
    measure one cooperative target).
@@ -87,14 +87,13 @@ from rangeproc.tracking.plot_association import (
     reassign_members,
 )
 from rangeproc.tracking.plot_swaps import repair_heads
-from rangeproc.tracking.plots import (
+from rangeproc.tracking.plot_tracker import (
     PlotTiming,
-    plot_positions,
     plot_timing,
-    several_objects,
     stationary_returns,
     track_plots,
 )
+from rangeproc.tracking.plots import plot_positions, several_objects
 from rangeproc.tracking.relay import (
     relay_lone_objects,
     stitch,
@@ -142,7 +141,7 @@ class Synthesis:
     per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
     SensorRows; the hypothesis searches run (``searches``); ids of discovered objects;
     per sensor index with angle-only plots, (their rows, those associated) (step 6); per plot
-    sensor index, its stationary returns (``tracking.plots.stationary_returns``)."""
+    sensor index, its stationary returns (``tracking.plot_tracker.stationary_returns``)."""
 
     members: dict[str, list[tuple[int, np.ndarray]]]
     segments: list[Segment]
@@ -163,11 +162,11 @@ def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
 
 def sensor_segments(sensor: int, rows: SensorRows
                     ) -> tuple[list[Segment], np.ndarray, np.ndarray,
-                               tuple[np.ndarray, PlotTiming] | None]:
+                               tuple[np.ndarray, PlotTiming, list[dict[str, float]]] | None]:
     """Segments of one radar/theodolite, plus its clutter rows, its angle-only plot rows
     (index arrays into ``rows``) and, for a plot sensor, its ranged plot rows with their
-    timing (``tracking.plots.plot_timing``; None otherwise). Segment ids count from 0 (the
-    caller offsets them)."""
+    timing (``tracking.plot_tracker.plot_timing``) and stationary returns (None otherwise).
+    Segment ids count from 0 (the caller offsets them)."""
     out: list[Segment] = []
     clutter = np.zeros(0, dtype=np.int64)
     angle_plots = np.zeros(0, dtype=np.int64)
@@ -207,7 +206,7 @@ def sensor_segments(sensor: int, rows: SensorRows
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, plot=True)
-            timing = (ranged, timing)
+            timing = (ranged, timing, stationary_returns(p, R, timing.scan, planar))
     return out, clutter, angle_plots, timing
 
 
@@ -272,7 +271,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     segments: list[Segment] = []
     clutter: dict[int, np.ndarray] = {}
     angle_plots: dict[int, np.ndarray] = {}
-    timings: dict[int, tuple[np.ndarray, PlotTiming]] = {}
+    timings: dict[int, tuple[np.ndarray, PlotTiming, list[dict[str, float]]]] = {}
     tracked = [i for i, r in rows.items()
                if kinds[i] in ("radar", "theodolite") and r.t.size]
     for name in declared:
@@ -370,8 +369,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                                                  NO_OBJECT))
     angle_used = {i: (int(rows.size), int(sum(bool(k) for k in keys)))
                   for i, (rows, keys) in angle_owner.items()}
-    stationary = {i: _stationary(rows[i], ranged, timing)
-                  for i, (ranged, timing) in timings.items()}
+    stationary = {i: cells for i, (_, _, cells) in timings.items()}
     return Synthesis(members, final, segment_object, row_object, row_segment, row_reason,
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names),
@@ -380,11 +378,11 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
 
 def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
                        clutter: Mapping[int, np.ndarray],
-                       timings: Mapping[int, tuple[np.ndarray, PlotTiming]]
+                       timings: Mapping[int, tuple[np.ndarray, PlotTiming, list]]
                        ) -> dict[int, tuple[np.ndarray, list[str]]]:
     """Step 5: every plot of a plot-tracked sensor (its tracks' rows and its clutter) goes to
     the object it fits best (``tracking.plot_association``); the memberships change
-    accordingly. ``timings``: sensor -> (its ranged plot rows, their timing). Returns
+    accordingly. ``timings``: sensor -> (its ranged plot rows, their timing, ...). Returns
     sensor -> (plot rows, the key of each one's object or "")."""
     plots: dict[int, list[np.ndarray]] = {}
     for seg in segments:
@@ -395,7 +393,7 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
     for i, parts in plots.items():
         rows = np.unique(np.concatenate([*parts, clutter.get(i, np.zeros(0, np.int64))]))
         batch = as_batch(objects.rows[i], objects.sensor_ids, i)
-        ranged, timing = timings[i]
+        ranged, timing, _ = timings[i]
         at = np.searchsorted(ranged, rows)
         frame, scan = timing.frame[at], timing.scan[at]
         before = np.full(rows.size, -1, dtype=np.int64)  # where the plot tracks put them
@@ -429,17 +427,6 @@ def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
-
-
-def _stationary(rows: SensorRows, ranged: np.ndarray, timing: PlotTiming
-                ) -> list[dict[str, float]]:
-    """The stationary returns of one plot sensor's ranged plots ``ranged`` (indices into
-    ``rows``) with their ``timing`` (``tracking.plots.stationary_returns``)."""
-    z = rows.z[ranged]
-    p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], rows.sigma[ranged][:, :3], rows.s[ranged],
-                          rows.Qr[ranged])
-    planar = bool(np.median(rows.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
-    return stationary_returns(p, R, timing.scan, planar)
 
 
 def _associate_angle_plots(objects: Objects, keys: list[str],

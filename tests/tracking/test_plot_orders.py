@@ -5,14 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rangeproc.tracking.plots import (
-    jump_share,
-    plot_positions,
-    plot_timing,
-    several_objects,
-    stationary_returns,
-    track_plots,
-)
+from rangeproc.tracking.plot_tracker import plot_timing, stationary_returns, track_plots
+from rangeproc.tracking.plots import jump_share, plot_positions, several_objects
 
 SIG = np.array([30.0, 2e-3, 2e-3])
 STARTS = np.array([[10_000.0, 20_000.0, 3_000.0], [-15_000.0, 5_000.0, 6_000.0],

@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from rangeproc.tracking.plot_tracker import track_plots
 from rangeproc.tracking.plots import (
     is_framed,
     is_rotating,
     plot_positions,
     scan_numbers,
-    track_plots,
 )
 
 SIG = np.array([30.0, 2e-3, 2e-3])
