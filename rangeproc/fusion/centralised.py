@@ -499,11 +499,8 @@ def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,
     state carried back by the motion model. The constant-acceleration model alone carries the
     acceleration estimated at the fix back over the whole lead-in (0.1 m/s^2 is 54 m over
     33 s) and its local process noise grows where the range is unobserved; a straight flight
-    needs the constant-velocity model, a turn the other. On the eight simulated lead-ins of
-    13-38 s (lock-jump and operator-switch seeds 1-10, the true assignment) the IMM's RMSE
-    was lower on six (0.4-56 m against 11.7-98 m; lock-jump seed 10 449 m against 922 m) and
-    higher on two (61 against 48 m, 146 against 106 m) than the constant-acceleration model
-    alone's, its lead-in NEES 1.1-2.3.
+    needs the constant-velocity model, a turn the other; the IMM lets the data choose
+    (tested in ``tests/fusion/test_lead_in.py``).
     """
     t_fix = float(batch.t[lead])
     grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)

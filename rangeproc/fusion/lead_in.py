@@ -6,7 +6,7 @@ before the radar does), starting at the first row means extrapolating the start 
 that time from a few seconds of fixes: a velocity error of a few m/s becomes hundreds of
 metres and a manoeuvre kilometres, which the stated prior does not cover. The angles then
 pull the state along their lines of sight, the gate rejects the radar when it arrives, and
-the estimate may leave for good (simulator lock-jump seed 10: 1e8 m).
+the estimate may leave for good (a lead-in of half a minute around a turn: 1e8 m).
 
 Instead the span is started at its first fix, where the fixes start it well, and the rows
 before it are filtered and smoothed backwards in time from the smoothed state there: time

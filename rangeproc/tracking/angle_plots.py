@@ -35,7 +35,7 @@ import numpy as np
 
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH
-from rangeproc.tracking.plot_association import assign_per_scan, plot_llr
+from rangeproc.tracking.plot_association import assign_per_scan, azimuth_sector, plot_llr
 from rangeproc.tracking.score import (
     EXTENT_SPHERICAL,
     OUTLIER_PROBABILITY,
@@ -76,9 +76,7 @@ def angle_clutter_floor(batch: MeasurementBatch, rows: np.ndarray, frame: np.nda
         return np.zeros(0)
     z = batch.z[rows]
     per_frame = rows.size / max(np.unique(frame).size, 1)
-    az = np.sort(np.mod(z[:, AZIMUTH], 2 * np.pi))
-    gaps = np.diff(np.concatenate([az, az[:1] + 2 * np.pi]))
-    sector = max(2 * np.pi - float(gaps.max()), 1e-6)
+    sector = max(azimuth_sector(z[:, AZIMUTH]), 1e-6)
     log_ext = np.log(EXTENT_SPHERICAL)
     flat = np.log(per_frame) - np.log(sector) + log_ext[AZIMUTH]
     elevated = np.isfinite(z[:, ELEVATION])

@@ -1,7 +1,8 @@
 """A surveillance radar's plots, associated one by one with the finished objects.
 
-The plot tracker (``tracking.plots``) links plots scan to scan on their own evidence only; where
-two objects fly closer than a few plot sigmas its tracks can swap between them, and a segment
+The plot tracker (``tracking.plot_tracker``) links plots scan to scan on their own evidence
+only; where two objects fly closer than a few plot sigmas its tracks can swap between them,
+and a segment
 then holds plots of both (a surveillance track with plots of two aircraft in formation).
 Once the objects exist, every plot of such a sensor (clutter included)
 is scored against each object whose span it lies in (``tracking.score``: the object's state
@@ -60,6 +61,15 @@ EXTEND_SECONDS = 60.0
 EXTEND_GAP_SCANS = 2.5
 
 
+def azimuth_sector(azimuth: np.ndarray) -> float:
+    """The azimuth sector (rad) that angles ``azimuth`` (N,) rad span: the turn less its
+    widest empty sector (2 pi for none)."""
+    if azimuth.size == 0:
+        return 2 * np.pi
+    az = np.sort(np.mod(azimuth, 2 * np.pi))
+    return 2 * np.pi - float(np.diff(np.concatenate([az, az[:1] + 2 * np.pi])).max())
+
+
 def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
                   n_clutter: int) -> np.ndarray:
     """(P,) the log-likelihood ratio (``tracking.score``) each plot of ``plots`` (P,) must
@@ -76,10 +86,7 @@ def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
     radar track)."""
     z = batch.z[plots]
     n_scans = max(np.unique(scan).size, 1)
-    az = np.sort(np.mod(z[:, AZIMUTH], 2 * np.pi))
-    gaps = np.diff(np.concatenate([az, az[:1] + 2 * np.pi])) if az.size else np.zeros(1)
-    spans = [float(np.ptp(z[:, 0])) if plots.size else 0.0,
-             2 * np.pi - float(gaps.max())]
+    spans = [float(np.ptp(z[:, 0])) if plots.size else 0.0, azimuth_sector(z[:, AZIMUTH])]
     elevated = np.isfinite(z[:, 2])
     if elevated.any():
         spans.append(float(np.ptp(z[elevated, 2])))
