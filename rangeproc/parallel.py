@@ -76,6 +76,10 @@ def row_chunks(n_rows: int, parts: int | None = None) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
+#: Seconds the parent waits, after an exception, for the child to finish its job under way.
+CHILD_STOP_SECONDS = 60.0
+
+
 def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
                       done: Callable[[int], None] = lambda k: None,
                       first: Callable[[], None] = lambda: None) -> None:
@@ -85,7 +89,8 @@ def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
     (it sees the same data without copying or pickling) take the next job from a shared
     counter until none is left. The jobs' effects must be files or the like: nothing returns
     from the child. ``done(k)`` is called in this process as each job finishes (the child's
-    as they are reported). The first exception in either process stops both and propagates
+    as they are reported). The first exception in either process stops both (the child after
+    the job it is running, so that job cleans up after itself) and propagates
     here (the child's is sent back whole, or as ``RuntimeError`` with its text when it cannot
     be pickled). Without a second core, without ``fork``, outside the main thread or inside
     a daemonic process (a Dask worker) every job runs here, in order.
@@ -159,7 +164,13 @@ def shared_with_child(run_job: Callable[[int], None], n_jobs: int,
             drain(block=False)
         drain(block=True)
     except BaseException:
-        worker.kill()
+        # stop the child taking jobs and let it finish the one under way, so that its own
+        # clean-up (a temporary file of an atomic write) runs: a killed child left it behind
+        with counter.get_lock():
+            counter.value = n_jobs
+        worker.join(timeout=CHILD_STOP_SECONDS)
+        if worker.is_alive():
+            worker.kill()
         raise
     finally:
         worker.join()
