@@ -81,9 +81,7 @@ def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
     ``N(z; h, S)``, must exceed it; the score's unrelated density is uniform over a fixed
     extent (``EXTENT_SPHERICAL``), so the floor is the mixture llr of ``log density +
     log extent``. An object that hardly knows where it is (a bridge of minutes: sigma of tens
-    of km) otherwise gates every plot and takes the best clutter plot of each scan (the
-    scale scenario: `U5`'s object took 171 clutter plots over three minutes before its
-    radar track)."""
+    of km) otherwise gates every plot and takes the best clutter plot of each scan."""
     z = batch.z[plots]
     n_scans = max(np.unique(scan).size, 1)
     spans = [float(np.ptp(z[:, 0])) if plots.size else 0.0, azimuth_sector(z[:, AZIMUTH])]
@@ -122,10 +120,11 @@ def plot_owners(batch: MeasurementBatch, plots: np.ndarray,
 
 def plot_llr(batch: MeasurementBatch, plots: np.ndarray,
              tracks: Sequence[ObjectTrack | None], scan: np.ndarray,
-             member: np.ndarray | None = None, floor: np.ndarray | None = None
-             ) -> np.ndarray:
+             member: np.ndarray | None = None, floor: np.ndarray | None = None,
+             margin: float = SPAN_MARGIN_SECONDS) -> np.ndarray:
     """(P, J) log-likelihood ratio of each plot (arguments as :func:`plot_owners`) under each
-    object, -inf outside the object's gate, below ``floor`` (P,) or outside its span."""
+    object, -inf outside the object's gate, below ``floor`` (P,) or outside its span widened
+    by ``margin`` (s)."""
     llr = np.full((plots.size, len(tracks)), -np.inf)
     if plots.size == 0 or not tracks:
         return llr
@@ -137,8 +136,7 @@ def plot_llr(batch: MeasurementBatch, plots: np.ndarray,
     for j, track in enumerate(tracks):
         if track is None or track.t.size == 0:
             continue
-        inside = np.flatnonzero((t >= track.t[0] - SPAN_MARGIN_SECONDS)
-                                & (t <= track.t[-1] + SPAN_MARGIN_SECONDS))
+        inside = np.flatnonzero((t >= track.t[0] - margin) & (t <= track.t[-1] + margin))
         if inside.size == 0:
             continue
         if member is None:

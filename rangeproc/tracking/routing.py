@@ -140,8 +140,9 @@ def association_table(cfg: Config, syn: Synthesis | None,
 def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> dict:
     """The summary's ``association``: objects and their segments, the chosen hypothesis'
     score and the runner-up's (over the searches, summed), whether the search was exact,
-    per sensor with angle-only plots the share of them associated by line of sight, and per
-    plot sensor its stationary returns."""
+    per sensor with angle-only plots the share of them associated by line of sight, per
+    plot sensor its stationary returns, the re-association rounds of the plots and their
+    ambiguous stretches (object, runner-up, sensor, t0, t1 s, plots, llr margin)."""
     if syn is None:
         return {"n_segments": 0, "objects": {}, "score": None, "runner_up": None,
                 "exact": True}
@@ -173,4 +174,8 @@ def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> d
                         for i, (n, k) in sorted(syn.angle_plots.items())},
         # quays, moored boats, shore: places with plots in most scans (range ENU m)
         "stationary_returns": {sensor_ids[i]: cells
-                               for i, cells in sorted(syn.stationary.items())}}
+                               for i, cells in sorted(syn.stationary.items())},
+        # plots re-associated against the smoothed objects until stable (rounds, plots
+        # moved per round), and the stretches where a runner-up object came close
+        "plot_rounds": syn.plot_rounds,
+        "ambiguous_plots": [{**a, "sensor": sensor_ids[a["sensor"]]} for a in syn.ambiguous]}

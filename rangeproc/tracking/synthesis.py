@@ -30,20 +30,12 @@
    first appearance. With a single declared target, a discovered object that overlaps no
    other object in time is that target seen at another time (a GPS on another time scale, a
    long outage) and joins it.
-5. **Plots, one by one** (``tracking.plot_association``): every plot of a plot-tracked
-   sensor goes to the object it fits best within the gates, one per object and scan (its own
-   object's trajectory scored as if it had been left out); a plot no object gates stays with
-   its plot track's object only where that object is less certain than the plot
-   (``_uncertain_at``: a precise object does not keep a plot it cannot gate) and the plot
-   is no lone outlier of it (``_isolated_outliers``: a clutter plot taken in a missed scan
-   is not kept), and never beside another plot of the same scan (``_one_plot_per_frame``).
-   An object whose quick trajectory gates some of its own plots nowhere, while being less
-   certain than those plots there, is re-estimated with a refinement pass
-   (``_doubtful``, ``Objects.refined_track``), and the plots no object gated are associated
-   again against the refined trajectories (the others keep their first association). Where
-   the plots alone range an object (between another radar's and an angle-only
-   theodolite's rows) the quick trajectory's single pass can be badly linearised, kilometres
-   off with a wide sigma, and lose the object's own plots to clutter.
+5. **Plots, round after round** (``tracking.reassociation``): every plot of a plot-tracked
+   sensor goes to the object it fits best within the gates, one per object and scan, scored
+   against the objects' smoothed trajectories (its own object's as if it had been left
+   out); the objects whose plots changed are re-estimated and the plots associated again
+   until no plot changes object. Ambiguous stretches keep their runner-up object and its
+   score.
 6. **Angle-only plots** (``tracking.angle_plots``): camera and theodolite detections without
    range and without ``track_id`` go, frame by frame, to the object whose line of sight they
    fit, where that object is already known across it and no other object fits nearly as
@@ -64,12 +56,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
-from rangeproc.fusion.batch import MeasurementBatch, SensorRows
+from rangeproc.fusion.batch import SensorRows
 from rangeproc.fusion.centralised import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
-from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.angle_plots import angle_owners
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.links import conflicts, score_links
@@ -80,12 +71,7 @@ from rangeproc.tracking.objects import (
     as_batch,
     member_conflict,
 )
-from rangeproc.tracking.plot_association import (
-    clutter_floor,
-    extend_objects,
-    plot_owners,
-    reassign_members,
-)
+from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plot_tracker import (
     PlotTiming,
@@ -93,12 +79,13 @@ from rangeproc.tracking.plot_tracker import (
     stationary_returns,
     track_plots,
 )
+from rangeproc.tracking.reassociation import reassociate_plots
 from rangeproc.tracking.plots import plot_positions, several_objects
 from rangeproc.tracking.relay import (
     relay_lone_objects,
     stitch,
 )
-from rangeproc.tracking.score import ObjectTrack, score_rows, score_rows_left_out
+from rangeproc.tracking.score import ObjectTrack
 from rangeproc.tracking.segments import segment_track
 
 log = logging.getLogger(__name__)
@@ -119,13 +106,6 @@ LOOK_AHEAD = 2
 #: Relative cost of an anchored object's quick trajectory per row (the process-noise search's
 #: filters and the smoother) against a segmented row, to start the slowest jobs first.
 ANCHOR_COST = 4
-#: A plot no object gates stays with its plot track's object (less certain than the plot
-#: there) unless it is a lone outlier of that object (``_isolated_outliers``): outside this
-#: chi-square probability of it, scored as left out, while its neighbours are inside. A
-#: clutter plot the plot tracker took in a missed scan (NIS 100 against its own object) is
-#: not kept.
-KEEP_PROBABILITY = 1.0 - 1e-6
-
 #: ``reason`` values of the association table.
 ASSOCIATED = "associated"
 CLUTTER = "clutter"
@@ -141,7 +121,9 @@ class Synthesis:
     per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
     SensorRows; the hypothesis searches run (``searches``); ids of discovered objects;
     per sensor index with angle-only plots, (their rows, those associated) (step 6); per plot
-    sensor index, its stationary returns (``tracking.plot_tracker.stationary_returns``)."""
+    sensor index, its stationary returns (``tracking.plot_tracker.stationary_returns``); the
+    rounds of step 5 (``tracking.reassociation``: rounds, converged, plots moved per round)
+    and its ambiguous stretches (object ids)."""
 
     members: dict[str, list[tuple[int, np.ndarray]]]
     segments: list[Segment]
@@ -153,6 +135,8 @@ class Synthesis:
     discovered: tuple[str, ...] = ()
     angle_plots: dict[int, tuple[int, int]] = field(default_factory=dict)
     stationary: dict[int, list[dict[str, float]]] = field(default_factory=dict)
+    plot_rounds: dict = field(default_factory=dict)
+    ambiguous: list[dict] = field(default_factory=list)
 
 
 def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
@@ -343,8 +327,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     discovered = relay_lone_objects(objects, declared, anchored, discovered, segs_of)
     final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
                    key=lambda s: s.id)
-    plot_owner = _reassociate_plots(objects, [*anchored, *discovered], final, clutter,
-                                    timings)
+    step5 = reassociate_plots(objects, [*anchored, *discovered], final, clutter, timings)
     # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
     discovered = [k for k in discovered if objects.members.get(k)]
     angle_owner = _associate_angle_plots(objects, [*anchored, *discovered], angle_plots)
@@ -361,7 +344,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
         row_object[i][plots] = owner
         row_reason[i][plots] = np.where(owner != "", ASSOCIATED, ANGLE_PLOT)
-    for i, (plots, keys) in plot_owner.items():              # step 5: plot by plot
+    for i, (plots, keys) in step5.owners.items():            # step 5: plot by plot
         owner = np.array([names.get(k, "") if k else "" for k in keys], dtype=object)
         row_object[i][plots] = owner
         row_reason[i][plots] = np.where(owner != "", ASSOCIATED,
@@ -370,63 +353,15 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     angle_used = {i: (int(rows.size), int(sum(bool(k) for k in keys)))
                   for i, (rows, keys) in angle_owner.items()}
     stationary = {i: cells for i, (_, _, cells) in timings.items()}
+    ambiguous = [{**a, "object": names[a["object"]], "runner_up": names[a["runner_up"]]}
+                 for a in step5.ambiguous if a["object"] in names and a["runner_up"] in names]
     return Synthesis(members, final, segment_object, row_object, row_segment, row_reason,
                      searches=searches,
                      discovered=tuple(names[k] for k in discovered if k in names),
-                     angle_plots=angle_used, stationary=stationary)
-
-
-def _reassociate_plots(objects: Objects, keys: list[str], segments: list[Segment],
-                       clutter: Mapping[int, np.ndarray],
-                       timings: Mapping[int, tuple[np.ndarray, PlotTiming, list]]
-                       ) -> dict[int, tuple[np.ndarray, list[str]]]:
-    """Step 5: every plot of a plot-tracked sensor (its tracks' rows and its clutter) goes to
-    the object it fits best (``tracking.plot_association``); the memberships change
-    accordingly. ``timings``: sensor -> (its ranged plot rows, their timing, ...). Returns
-    sensor -> (plot rows, the key of each one's object or "")."""
-    plots: dict[int, list[np.ndarray]] = {}
-    for seg in segments:
-        if seg.plot:
-            plots.setdefault(seg.sensor, []).append(seg.rows)
-    out: dict[int, tuple[np.ndarray, list[str]]] = {}
-    keys = [k for k in keys if k in objects.tracks]
-    for i, parts in plots.items():
-        rows = np.unique(np.concatenate([*parts, clutter.get(i, np.zeros(0, np.int64))]))
-        batch = as_batch(objects.rows[i], objects.sensor_ids, i)
-        ranged, timing, _ = timings[i]
-        at = np.searchsorted(ranged, rows)
-        frame, scan = timing.frame[at], timing.scan[at]
-        before = np.full(rows.size, -1, dtype=np.int64)  # where the plot tracks put them
-        for j, k in enumerate(keys):
-            for sensor, sel in objects.members.get(k, []):
-                if sensor == i:
-                    before[np.isin(rows, sel)] = j
-        floor = clutter_floor(batch, rows, scan, clutter.get(i, np.zeros(0)).size)
-        owner, gated = plot_owners(batch, rows, [objects.tracks[k] for k in keys], frame,
-                                   before, floor)
-        doubtful = _doubtful(objects, keys, batch, rows, before, gated)
-        if doubtful:          # quick trajectories that miss their own plots: refined, and
-            #                   the plots no object gated are associated again
-            refined = thread_map(objects.refined_track, doubtful)
-            for k, track in zip(doubtful, refined):
-                objects.adopt(k, track)
-            again, gated_again = plot_owners(batch, rows, [objects.tracks[k] for k in keys],
-                                             frame, before, floor)
-            rescue = ~gated & gated_again
-            owner, gated = np.where(rescue, again, owner), gated | gated_again
-        keep = before >= 0                 # an ungated plot stays with its plot track's
-        for j in np.unique(before[keep & ~gated]):     # object only where that object is
-            own = np.flatnonzero((before == j) & ~gated)    # less certain than the plot and
-            keep[own] = (_uncertain_at(objects.tracks[keys[j]], batch, rows[own])  # it is no
-                         & ~_isolated_outliers(objects.tracks[keys[j]], batch, rows,  # lone
-                                               before == j, own))                    # outlier
-        owner = np.where(gated, owner, np.where(keep, before, -1))
-        owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], frame, owner,
-                               np.isin(rows, np.concatenate(parts)), floor, timing.revisit)
-        owner = _one_plot_per_frame(objects, keys, batch, rows, owner, gated, frame)
-        objects.members = reassign_members(objects.members, i, rows, owner, keys)
-        out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
-    return out
+                     angle_plots=angle_used, stationary=stationary,
+                     plot_rounds={"rounds": step5.rounds, "converged": step5.converged,
+                                  "moved_plots": step5.moved},
+                     ambiguous=ambiguous)
 
 
 def _associate_angle_plots(objects: Objects, keys: list[str],
@@ -446,74 +381,6 @@ def _associate_angle_plots(objects: Objects, keys: list[str],
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
-
-
-def _one_plot_per_frame(objects: Objects, keys: list[str], batch: MeasurementBatch,
-                        rows: np.ndarray, owner: np.ndarray, gated: np.ndarray,
-                        frame: np.ndarray) -> np.ndarray:
-    """``owner`` (P,) (index into ``keys``, -1 none, of the object each plot row ``rows`` goes
-    to) with at most one plot per object and frame (``frame`` (P,)): an object is one
-    reflector, seen once per scan. Where an object holds several plots of one frame (a plot
-    its plot track gave it that no object gated, beside the plot the per-frame assignment
-    gave it), the gated plot stays (``gated`` (P,)), else the one likelier under the
-    object's trajectory; the others are unassigned."""
-    out = owner.copy()
-    held = np.flatnonzero(out >= 0)
-    if held.size == 0:
-        return out
-    pair = out[held].astype(np.int64) * (int(frame.max()) + 1) + frame[held]
-    uniq, inverse, count = np.unique(pair, return_inverse=True, return_counts=True)
-    for g in np.flatnonzero(count > 1):
-        idx = held[inverse == g]
-        track = objects.tracks.get(keys[int(out[idx[0]])])
-        score = np.where(gated[idx], np.inf, 0.0)
-        if track is not None and track.t.size:
-            _, _, ll = score_rows(batch, rows[idx], track)
-            score = score + np.nan_to_num(ll, nan=-np.inf)
-        keep = idx[int(np.argmax(score))]
-        out[idx[idx != keep]] = -1
-    return out
-
-
-def _doubtful(objects: Objects, keys: list[str], batch: MeasurementBatch, rows: np.ndarray,
-              before: np.ndarray, gated: np.ndarray) -> list[str]:
-    """The objects (keys) whose quick trajectory gates none of some of their own plots (rows
-    ``rows`` of ``batch``, ``before`` the index into keys of the object each belongs to, -1
-    none; ``gated`` whether any object gated it) where that trajectory is less certain than
-    the plot: a first pass badly linearised where the plots alone range the object, which
-    the refinement passes repair. A precise trajectory (GPS) that misses a plot has met a
-    wild plot, not its own error."""
-    return [keys[j] for j in np.unique(before[(before >= 0) & ~gated])
-            if _uncertain_at(objects.tracks[keys[j]], batch,
-                             rows[(before == j) & ~gated]).any()]
-
-
-def _isolated_outliers(track: ObjectTrack, batch: MeasurementBatch, rows: np.ndarray,
-                       mine: np.ndarray, sel: np.ndarray) -> np.ndarray:
-    """(S,) bool for the plots ``rows[sel]`` (S,) of the object of ``track`` (``mine`` (P,):
-    which of ``rows`` are its plots): outside the chi-square gate ``KEEP_PROBABILITY`` of the
-    object's trajectory (scored as left out of it) while its plots before and after in time
-    are inside: a lone outlier, e.g. a clutter plot the plot tracker took in a scan that
-    missed the object. A run of such plots is the trajectory's failure, not the plots', and
-    is kept (the scale scenario's `U5` lost its object when its runs were dropped)."""
-    own = np.flatnonzero(mine)
-    _, nis, _ = score_rows_left_out(batch, rows[own], track, rows[own])
-    dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
-    out = nis > chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))     # NaN: not outside
-    lone = out.copy()
-    lone[1:] &= ~out[:-1]
-    lone[:-1] &= ~out[1:]
-    return lone[np.searchsorted(own, sel)]
-
-
-def _uncertain_at(track: ObjectTrack, batch: MeasurementBatch, sel: np.ndarray) -> np.ndarray:
-    """(M,) bool: at the times of ``batch`` rows ``sel`` (M,), the trajectory's position
-    sigma (root of the trace, m) exceeds the row's range sigma, or the trajectory does not
-    reach that time (a quick trajectory may start after its object's first plots)."""
-    t = batch.t[sel]
-    k = np.clip(np.searchsorted(track.t, t), 0, track.t.size - 1)
-    spread_m = np.sqrt(np.trace(track.P[k, :3, :3], axis1=1, axis2=2))
-    return (spread_m > batch.sigma[sel, 0]) | (t < track.t[0]) | (t > track.t[-1])
 
 
 def _name_objects(objects: Objects, declared: Sequence[str], anchored: list[str],

@@ -1,5 +1,5 @@
 """Which objects' quick trajectories are refined before the plots are re-associated
-(``tracking.synthesis._doubtful``)."""
+(``tracking.reassociation.doubtful``)."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from rangeproc.tracking.score import ObjectTrack
-from rangeproc.tracking.synthesis import _doubtful
+from rangeproc.tracking.reassociation import doubtful as _doubtful
 
 
 def track(sigma_m: float) -> ObjectTrack:
@@ -39,7 +39,7 @@ def test_a_lone_outlier_is_one_a_run_is_not(plot_batch) -> None:
     """``_isolated_outliers``: of an object's plots, one far off between plots that fit is a
     lone outlier (clutter taken in a missed scan); two in a row are the trajectory's failure
     and are not called outliers."""
-    from rangeproc.tracking.synthesis import _isolated_outliers
+    from rangeproc.tracking.reassociation import isolated_outliers as _isolated_outliers
 
     t = np.arange(0.0, 100.0, 4.0)
     r = np.full(t.size, 10_000.0)

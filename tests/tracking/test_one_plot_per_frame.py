@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rangeproc.tracking.synthesis import _one_plot_per_frame
+from rangeproc.tracking.reassociation import one_plot_per_frame as _one_plot_per_frame
 
 
 def test_an_object_keeps_its_gated_plot_of_a_frame_and_lets_the_others_go() -> None:

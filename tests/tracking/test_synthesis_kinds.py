@@ -11,7 +11,7 @@ from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_multi
 from rangeproc.tracking import objects as objects_module
-from rangeproc.tracking import synthesis
+from rangeproc.tracking import reassociation
 
 
 def _association(folder) -> pd.DataFrame:
@@ -240,6 +240,6 @@ def test_a_clutter_plot_in_a_missed_scan_is_not_kept(tmp_path, monkeypatch) -> N
 
     run(simulate_multi(tmp_path / "now", kind="surveillance", seed=6))
     assert clutter_kept(tmp_path / "now") == 0
-    monkeypatch.setattr(synthesis, "KEEP_PROBABILITY", 1.0)
+    monkeypatch.setattr(reassociation, "KEEP_PROBABILITY", 1.0)
     run(simulate_multi(tmp_path / "before", kind="surveillance", seed=6))
     assert clutter_kept(tmp_path / "before") >= 1
