@@ -18,7 +18,10 @@ either, rather than half of them to the wrong one), and only to an object alread
 across the line of sight (:func:`localised`: its own bearing sigma, from its position
 covariance, within ``LOCALISED_SIGMAS`` of the detection's): a line of sight refines where
 an object is, it cannot say where an object nobody ranged has gone (an object carried beyond
-its rows gates every detection in a wide sector).
+its rows gates every detection in a wide sector). For the same reason a detection is taken
+only within the span of the object's other rows, never before its first or after its last:
+seconds of bearings at tens of hertz ahead of the first ranged row let the forward filter
+run off along the line of sight before any range arrives.
 
 A detection must also be likelier the object's than clutter (:func:`angle_clutter_floor`):
 the sensor's own clutter density is its detections per frame over the azimuth sector (and
@@ -94,7 +97,7 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
         return np.full(rows.size, -1, dtype=np.int64)
     frame = np.unique(batch.t[rows], return_inverse=True)[1].astype(np.int64).ravel()
     floor = angle_clutter_floor(batch, rows, frame)
-    llr = plot_llr(batch, rows, tracks, frame, None, floor)
+    llr = plot_llr(batch, rows, tracks, frame, None, floor, margin=0.0)   # inside the span
     for j, track in enumerate(tracks):
         if track is not None and track.t.size:
             llr[~localised(batch, rows, track), j] = -np.inf
