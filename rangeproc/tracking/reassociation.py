@@ -84,6 +84,30 @@ SWITCH_LLR = 3.0
 MIN_AMBIGUOUS_PLOTS = 3
 
 
+@dataclass(frozen=True, slots=True)
+class SensorPlots:
+    """What one plot sensor's rounds share (computed once): its plot rows ``rows`` (P,),
+    their frame numbers (P,), which belong to a plot track (``tracked`` (P,) bool), the
+    clutter floor of each (``plot_association.clutter_floor`` over their scans, (P,)) and the
+    sensor's revisit period (s)."""
+
+    rows: np.ndarray
+    frame: np.ndarray
+    tracked: np.ndarray
+    floor: np.ndarray
+    revisit: float
+
+
+def sensor_plots(objects: Objects, sensor: int, rows: np.ndarray, frame: np.ndarray,
+                 scan: np.ndarray, tracked: np.ndarray, n_clutter: int,
+                 revisit: float) -> SensorPlots:
+    """:class:`SensorPlots` of ``sensor``'s plot rows ``rows`` (P,) with their frame and scan
+    numbers (P,); its clutter floor from its ``n_clutter`` clutter plots."""
+    batch = as_batch(objects.rows[sensor], objects.sensor_ids, sensor)
+    return SensorPlots(rows, frame, tracked, clutter_floor(batch, rows, scan, n_clutter),
+                       revisit)
+
+
 @dataclass(slots=True)
 class Reassociation:
     """The outcome of step 5: per sensor (its plot rows (P,), the key of each one's object or
@@ -116,11 +140,16 @@ def reassociate_plots(objects: Objects, keys: list[str], segments: Sequence[Segm
     if not parts or not keys:
         return out
     sensors = sorted(parts)
-    plots = {i: np.unique(np.concatenate([*parts[i], clutter.get(i, np.zeros(0, np.int64))]))
-             for i in sensors}
-    tracked = {i: np.unique(np.concatenate(parts[i])) for i in sensors}
+    plots: dict[int, SensorPlots] = {}
+    for i in sensors:
+        rows = np.unique(np.concatenate([*parts[i], clutter.get(i, np.zeros(0, np.int64))]))
+        ranged, timing, _ = timings[i]
+        at = np.searchsorted(ranged, rows)
+        plots[i] = sensor_plots(objects, i, rows, timing.frame[at], timing.scan[at],
+                                np.isin(rows, np.concatenate(parts[i])),
+                                clutter.get(i, np.zeros(0)).size, timing.revisit)
     refined: set[str] = set()
-    held = {i: _holders(objects, keys, i, plots[i]) for i in sensors}
+    held = {i: _keys_of(held_by(objects, keys, i, plots[i].rows), keys) for i in sensors}
     last_llr: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     owners: dict[int, np.ndarray] = {}
     seen = {_state(held)}
@@ -129,20 +158,16 @@ def reassociate_plots(objects: Objects, keys: list[str], segments: Sequence[Segm
         changed: set[str] = set()
         moved = 0
         for i in sensors:
-            ranged, timing, _ = timings[i]
-            at = np.searchsorted(ranged, plots[i])
-            owner, llr, assigned = associate_sensor(
-                objects, keys, i, plots[i], timing.frame[at], timing.scan[at],
-                np.isin(plots[i], tracked[i]), clutter.get(i, np.zeros(0)).size,
-                timing.revisit, refined, settled=out.rounds > 1)
-            now = np.array([keys[j] if j >= 0 else "" for j in owner], dtype=object)
+            owner, llr, assigned = associate_sensor(objects, keys, i, plots[i], refined,
+                                                    settled=out.rounds > 1)
+            now = _keys_of(owner, keys)
             diff = now != held[i]
             moved += int(diff.sum())
             changed.update(str(k) for k in np.concatenate([now[diff], held[i][diff]]) if k)
             held[i] = now
             last_llr[i] = (llr, assigned)
             owners[i] = owner
-            out.owners[i] = (plots[i], [str(k) for k in now])
+            out.owners[i] = (plots[i].rows, [str(k) for k in now])
         out.moved.append(moved)
         out.converged = not changed
         state = _state(held)
@@ -164,7 +189,7 @@ def reassociate_plots(objects: Objects, keys: list[str], segments: Sequence[Segm
     for i in sensors:
         llr, assigned = last_llr[i]
         out.ambiguous.extend(ambiguous_stretches(
-            objects.rows[i].t[plots[i]], llr, np.where(assigned, owners[i], -1), keys, i))
+            objects.rows[i].t[plots[i].rows], llr, np.where(assigned, owners[i], -1), keys, i))
     return out
 
 
@@ -173,34 +198,33 @@ def _state(held: Mapping[int, np.ndarray]) -> int:
     return hash(tuple(tuple(held[i]) for i in sorted(held)))
 
 
-def _holders(objects: Objects, keys: Sequence[str], sensor: int, rows: np.ndarray
-             ) -> np.ndarray:
-    """(P,) the key of the object holding each of ``sensor``'s rows ``rows``, "" for none."""
-    out = np.full(rows.size, "", dtype=object)
-    for k in keys:
-        for i, sel in objects.members.get(k, []):
-            if i == sensor:
-                out[np.isin(rows, sel)] = k
-    return out
-
-
-def associate_sensor(objects: Objects, keys: list[str], sensor: int, rows: np.ndarray,
-                     frame: np.ndarray, scan: np.ndarray, tracked: np.ndarray,
-                     n_clutter: int, revisit: float, refined: set[str],
-                     settled: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One round for one sensor (module docstring): its plot rows ``rows`` (P,), their frame
-    and scan numbers (P,), which belong to a plot track (``tracked`` (P,) bool), its
-    clutter plot count and revisit period (s). Objects refined here join ``refined``; the
-    memberships of ``objects`` are updated. Returns (owner (P,) index into ``keys`` or -1,
-    the llr matrix (P, K) of the assignment, whether the assignment gave each plot its
-    owner (P,) bool)."""
-    batch = as_batch(objects.rows[sensor], objects.sensor_ids, sensor)
-    before = np.full(rows.size, -1, dtype=np.int64)
+def held_by(objects: Objects, keys: Sequence[str], sensor: int, rows: np.ndarray
+            ) -> np.ndarray:
+    """(P,) index into ``keys`` of the object holding each of ``sensor``'s rows ``rows``, -1
+    for none."""
+    out = np.full(rows.size, -1, dtype=np.int64)
     for j, k in enumerate(keys):
         for i, sel in objects.members.get(k, []):
             if i == sensor:
-                before[np.isin(rows, sel)] = j
-    floor = clutter_floor(batch, rows, scan, n_clutter)
+                out[np.isin(rows, sel)] = j
+    return out
+
+
+def _keys_of(owner: np.ndarray, keys: Sequence[str]) -> np.ndarray:
+    """(P,) object array: the key of each owner index (``keys``), "" for -1."""
+    return np.array([keys[j] if j >= 0 else "" for j in owner], dtype=object)
+
+
+def associate_sensor(objects: Objects, keys: list[str], sensor: int, plots: SensorPlots,
+                     refined: set[str], settled: bool = False
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One round for one sensor's plots ``plots`` (module docstring). Objects refined here
+    join ``refined``; the memberships of ``objects`` are updated. Returns (owner (P,) index
+    into ``keys`` or -1, the llr matrix (P, K) of the assignment, whether the assignment gave
+    each plot its owner (P,) bool)."""
+    batch = as_batch(objects.rows[sensor], objects.sensor_ids, sensor)
+    rows, frame, floor = plots.rows, plots.frame, plots.floor
+    before = held_by(objects, keys, sensor, rows)
 
     def assign() -> tuple[np.ndarray, np.ndarray]:
         llr = plot_llr(batch, rows, [objects.tracks[k] for k in keys], frame, before, floor,
@@ -240,7 +264,7 @@ def associate_sensor(objects: Objects, keys: list[str], sensor: int, rows: np.nd
     if settled:                  # a later round moves plots between objects, never drops one
         owner = np.where((owner < 0) & (before >= 0), before, owner)  # the first kept
     owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], frame, owner,
-                           tracked, floor, revisit)
+                           plots.tracked, floor, plots.revisit)
     owner = one_plot_per_frame(objects, keys, batch, rows, owner, gated, frame)
     objects.members = reassign_members(objects.members, sensor, rows, owner, keys)
     return owner, llr, assigned & (owner >= 0)

@@ -72,13 +72,15 @@ def _run_script(monkeypatch, script: list[str]):
     objects = _fake_objects()
     rounds = iter(script + [script[-1]] * 10)
 
-    def scripted(objects, keys, sensor, rows, frame, scan, tracked, n_clutter, revisit,
-                 refined, settled=False):
+    def scripted(objects, keys, sensor, plots, refined, settled=False):
         owner = np.array([keys.index(k) if k in keys else -1 for k in next(rounds)])
-        objects.members = reassign_members(objects.members, sensor, rows, owner, keys)
-        return owner, np.zeros((rows.size, len(keys))), owner >= 0
+        objects.members = reassign_members(objects.members, sensor, plots.rows, owner, keys)
+        return owner, np.zeros((plots.rows.size, len(keys))), owner >= 0
 
     monkeypatch.setattr(ra, "associate_sensor", scripted)
+    monkeypatch.setattr(ra, "sensor_plots", lambda objects, sensor, rows, frame, scan, tracked,
+                        n, revisit: ra.SensorPlots(rows, frame, tracked, np.zeros(rows.size),
+                                                   revisit))
     seg = Segment(0, 0, np.arange(4), -1, 0.0, 3.0, True, plot=True)
     timing = SimpleNamespace(frame=np.arange(4), scan=np.arange(4), revisit=1.0)
     out = ra.reassociate_plots(objects, ["A", "B"], [seg], {}, {0: (np.arange(4), timing, [])})
@@ -138,6 +140,11 @@ def _one_sensor_objects(plot_batch, ranges: list[float], tracks: dict, members: 
                            adopt=lambda k, tr: True)
 
 
+def _one_plot(objects) -> ra.SensorPlots:
+    one = np.array([0])
+    return ra.sensor_plots(objects, 0, one, one, one, np.zeros(1, bool), 0, 1.0)
+
+
 @pytest.mark.parametrize("settled, expected", [(False, 1), (True, 0)])
 def test_a_later_round_moves_a_plot_only_for_a_clearly_better_object(
         plot_batch, settled: bool, expected: int) -> None:
@@ -148,8 +155,7 @@ def test_a_later_round_moves_a_plot_only_for_a_clearly_better_object(
         plot_batch, [1004.0], {"A": _line_track(1000.0, 1.0, grid),
                                "B": _line_track(1003.0, 1.0, grid)},
         {"A": [(0, np.array([0]))], "B": []})
-    owner, llr, _ = ra.associate_sensor(objects, ["A", "B"], 0, np.array([0]), np.array([0]),
-                                        np.array([0]), np.zeros(1, bool), 0, 1.0, set(),
+    owner, llr, _ = ra.associate_sensor(objects, ["A", "B"], 0, _one_plot(objects), set(),
                                         settled=settled)
     assert 0 < llr[0, 1] - llr[0, 0] < ra.SWITCH_LLR
     assert owner.tolist() == [expected]
@@ -165,8 +171,7 @@ def test_a_later_round_never_drops_a_plot_no_object_gates(plot_batch, settled: b
     objects = _one_sensor_objects(plot_batch, [1200.0],
                                   {"A": _line_track(1000.0, 1.0, grid)},
                                   {"A": [(0, np.array([0]))]})
-    owner, llr, _ = ra.associate_sensor(objects, ["A"], 0, np.array([0]), np.array([0]),
-                                        np.array([0]), np.zeros(1, bool), 0, 1.0, set(),
+    owner, llr, _ = ra.associate_sensor(objects, ["A"], 0, _one_plot(objects), set(),
                                         settled=settled)
     assert not np.isfinite(llr).any()
     assert owner.tolist() == [expected]
