@@ -7,7 +7,8 @@ existing cluster with a scheduler address; failures are recorded per sortie and 
 go on; a rerun skips sorties whose outputs match their config and inputs. A campaign is
 many runs, nothing else: each sortie's outputs are exactly ``rangeproc run``'s.
 """
-from rangeproc.campaign.runner import CampaignResult, run_campaign
+from rangeproc.campaign.result import CampaignResult
+from rangeproc.campaign.runner import run_campaign
 from rangeproc.campaign.sortie import Outcome, run_sortie
 from rangeproc.campaign.spec import Campaign, Sortie, load_campaign
 

@@ -22,7 +22,7 @@ from rangeproc.io.writers import atomic_path
 from rangeproc.report.page import STYLE, esc, figure_block, html_table
 
 if TYPE_CHECKING:
-    from rangeproc.campaign.runner import CampaignResult
+    from rangeproc.campaign.result import CampaignResult
 
 
 def sorties_table(record: CampaignResult, folder: Path) -> str:

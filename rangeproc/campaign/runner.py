@@ -17,9 +17,9 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
+from rangeproc.campaign.result import CampaignResult
 from rangeproc.campaign.sortie import Outcome, run_sortie
 from rangeproc.campaign.spec import Campaign
 from rangeproc.errors import ConfigError
@@ -32,26 +32,6 @@ log = logging.getLogger(__name__)
 #: task thread's stack every 10 ms for a dashboard the local cluster does not serve, and
 #: took 5-6 % of a sample sortie's time on a worker (3.30 -> 3.12 s, 9 sorties, twice).
 LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
-
-
-@dataclass(frozen=True, slots=True)
-class CampaignResult:
-    """Outcomes in campaign order, the records folder, the wall time (s) and the cluster."""
-
-    outcomes: tuple[Outcome, ...]
-    out_dir: Path
-    seconds: float
-    cluster: str
-
-    @property
-    def failed(self) -> tuple[Outcome, ...]:
-        return tuple(o for o in self.outcomes if o.status == "failed")
-
-    def counts(self) -> dict[str, int]:
-        out = {"done": 0, "skipped": 0, "failed": 0}
-        for o in self.outcomes:
-            out[o.status] += 1
-        return out
 
 
 def _client(scheduler: str | None, workers: int | None, n_tasks: int):  # type: ignore[no-untyped-def]
