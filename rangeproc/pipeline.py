@@ -44,6 +44,7 @@ from rangeproc.models.measurement import COMPONENTS
 from rangeproc.parallel import thread_map
 from rangeproc.progress import StageClock
 from rangeproc.results import SensorResiduals, TrackEstimate
+from rangeproc.run_warnings import collect_warnings
 from rangeproc.tracking.routing import (
     association_summary,
     association_table,
@@ -250,8 +251,14 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     """Process one flight: read the config and logs, fuse every target, write the outputs.
 
     ``clock`` times the stages (read, screen, assemble, fuse, write, report) and drives the progress
-    display; the default shows nothing.
+    display; the default shows nothing. Every warning logged on the way is also kept in
+    ``summary["warnings"]`` (one line each) for the report page and the terminal's headline.
     """
+    with collect_warnings() as warnings:
+        return _run(config_path, clock, warnings)
+
+
+def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str]) -> RunOutput:
     from rangeproc.report.figures import write_report
     from rangeproc.report.page import write_page
 
@@ -376,6 +383,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
                        for s in cfg.sensors},
             "sensors": sensor_summary, "targets": target_summary,
             "association": association_summary(synthesis, sensor_ids),
+            "warnings": warnings,
             "elapsed_s": time.perf_counter() - started,
             "stage_seconds": dict(clock.seconds),
         }
