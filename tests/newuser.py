@@ -65,7 +65,7 @@ def iso(unix: np.ndarray) -> list[str]:
 
 def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
                 angle_unit: str = "deg", with_gps: bool = True, time_offset: str | None = "auto",
-                seed: int = 7) -> Flight:
+                radar_phase: float = 0.0, seed: int = 7) -> Flight:
     """Write R1.csv (and G1.csv), config.toml and truth.csv into ``folder``.
 
     Args:
@@ -76,11 +76,13 @@ def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
         time_offset: the radar's ``time_offset`` as written in the config: "auto" aligns the
             radar's scale with the Unix (ISO) scale as a float, "iso" as an ISO instant, None
             leaves it out.
+        radar_phase: s added to every radar stamp (0.05 puts a 10 Hz radar exactly half an
+            output interval off the 10 Hz output grid).
     """
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     t0 = DAY_UNIX + START_SOD
-    unix = t0 + np.arange(0.0, DURATION + 1e-9, 0.1)
+    unix = t0 + radar_phase + np.arange(0.0, DURATION + 1e-9, 0.1)
     lat, lon, h = truth_at(unix)
     az, el, rng_m = pymap3d.geodetic2aer(lat, lon, h, *SITE)  # deg, deg, m
     az, el = np.asarray(az), np.asarray(el)

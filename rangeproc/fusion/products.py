@@ -12,16 +12,50 @@ from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 
+#: s: time stamps closer than this to an output interval's boundary count as on it. Float64
+#: resolves about 0.24 us at Unix-scale times (1.8e9 s) and far finer at seconds of day, so
+#: without it a sensor stamped exactly half an interval off the grid would fall into one
+#: interval or the next depending on the time scale.
+TIME_RESOLUTION = 1e-6
+
+
+def epoch_of_rows(grid_t: np.ndarray, rate_hz: float, t: np.ndarray) -> np.ndarray:
+    """(N,) int64: the index into ``grid_t`` (K,) of the output epoch whose interval
+    [t_k - T/2, t_k + T/2) (T = 1 / ``rate_hz`` s) holds each time ``t`` (N,), or -1.
+
+    The arithmetic runs in whole output intervals counted from ``grid_t[0]``, with boundaries
+    resolved to :data:`TIME_RESOLUTION`, so that the same data give the same answer on Unix,
+    GPS-week or seconds-of-day time scales (the grid need not be complete: bridged or left-out
+    epochs are matched by their interval number)."""
+    t = np.asarray(t, dtype=float)
+    if len(grid_t) == 0 or t.size == 0:
+        return np.full(t.size, -1, dtype=np.int64)
+    ref = grid_t[0]
+    grid_k = np.rint((grid_t - ref) * rate_hz).astype(np.int64)
+    row_k = np.floor((t - ref + TIME_RESOLUTION) * rate_hz + 0.5).astype(np.int64)
+    j = np.clip(np.searchsorted(grid_k, row_k), 0, grid_k.size - 1)
+    return np.where(grid_k[j] == row_k, j, -1).astype(np.int64)
+
+
+def _sensor_epochs(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
+                   sensor_used: np.ndarray) -> dict[int, np.ndarray]:
+    """sensor index -> (K,) bool: the epochs whose interval holds a used row of that sensor."""
+    epoch = epoch_of_rows(grid_t, rate_hz, t_used)
+    have = {}
+    for sensor in np.unique(sensor_used):
+        e = epoch[(sensor_used == sensor) & (epoch >= 0)]
+        mask = np.zeros(len(grid_t), dtype=bool)
+        mask[e] = True
+        have[int(sensor)] = mask
+    return have
+
+
 def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
                       sensor_used: np.ndarray) -> np.ndarray:
     """(K,) distinct sensors with a used row in [t - T/2, t + T/2) around each grid epoch."""
-    half = 0.5 / rate_hz
-    edges = np.append(grid_t - half, grid_t[-1] + half) if len(grid_t) else np.empty(0)
     count = np.zeros(len(grid_t), dtype=np.int64)
-    for sensor in np.unique(sensor_used):
-        tt = t_used[sensor_used == sensor]
-        hist, _ = np.histogram(tt, bins=edges)
-        count += hist > 0
+    for mask in _sensor_epochs(grid_t, rate_hz, t_used, sensor_used).values():
+        count += mask
     return count
 
 
@@ -29,17 +63,14 @@ def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
                      sensor_used: np.ndarray, sensor_ids: tuple[str, ...]
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Per output epoch: the comma-separated ids of the sensors with a used row within the
-    output interval around it (K,) and the time (s) to the nearest used row of any sensor (K,)."""
-    half = 0.5 / rate_hz
+    output interval around it (K,) and the time (s) to the nearest used row of any sensor (K,),
+    rounded to :data:`TIME_RESOLUTION` (finer digits are the time scale's float rounding)."""
     k = grid_t.size
     names = np.full(k, "", dtype=object)
     if k == 0:
         return names, np.zeros(0)
-    edges = np.append(grid_t - half, grid_t[-1] + half)
-    for sensor in np.unique(sensor_used):
-        hist, _ = np.histogram(t_used[sensor_used == sensor], bins=edges)
-        have = hist > 0
-        sid = sensor_ids[int(sensor)]
+    for sensor, have in _sensor_epochs(grid_t, rate_hz, t_used, sensor_used).items():
+        sid = sensor_ids[sensor]
         names[have] = [f"{n},{sid}" if n else sid for n in names[have]]
     ts = np.sort(t_used)
     if ts.size == 0:
@@ -48,7 +79,7 @@ def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
     gap = np.abs(ts[j] - grid_t)
     if ts.size > 1:
         gap = np.minimum(gap, np.abs(ts[j - 1] - grid_t))
-    return names, gap
+    return names, np.round(gap, 6)
 
 
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
