@@ -347,8 +347,8 @@ class _Validator(ValueChecks):
             raise self.error(f"{key}.angle_unit",
                              f"unknown angle unit '{unit}' (expected one of: "
                              f"{join_names(ANGLE_UNITS)})")
-        time_offset = self.bounded(t.get("time_offset", 0.0), f"{key}.time_offset",
-                                   -MAX_ABS_TIME, MAX_ABS_TIME, "s")
+        time_offset = self.instant(t.get("time_offset", 0.0), f"{key}.time_offset",
+                                   MAX_ABS_TIME)
         allow_disjoint = self.boolean(t.get("allow_disjoint_time", False),
                                       f"{key}.allow_disjoint_time")
 

@@ -7,6 +7,7 @@ and the dotted key, e.g. ``flight.toml: sensors[2].sigma.range: must be > 0, got
 """
 from __future__ import annotations
 
+import datetime as dt
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -106,6 +107,30 @@ class ValueChecks:
             raise self.error(key, f"{value:g}{u} is outside the plausible range "
                                   f"[{lo:g}, {hi:g}]{u}")
         return value
+
+    def instant(self, x: object, key: str, bound: float) -> float:
+        """Seconds: a number (in [-bound, bound]), or a calendar instant as seconds from
+        1970-01-01T00:00:00Z: an ISO-8601 string or TOML date-time with a UTC offset or ``Z``,
+        or a date alone (an ISO ``YYYY-MM-DD`` string or TOML date: its midnight UTC)."""
+        if isinstance(x, str):
+            text = x.strip()
+            try:
+                x = (dt.date.fromisoformat(text) if len(text) == 10
+                     else dt.datetime.fromisoformat(text))
+            except ValueError:
+                raise self.error(key, f"expected seconds or an ISO-8601 date or instant, got "
+                                      f"{show_value(x)}") from None
+        if isinstance(x, dt.datetime):
+            if x.tzinfo is None:
+                raise self.error(key, f"the instant {x.isoformat()} needs a UTC offset or 'Z' "
+                                      "(e.g. 2026-05-11T00:00:00Z)")
+            return x.timestamp()
+        if isinstance(x, dt.date):
+            return dt.datetime(x.year, x.month, x.day, tzinfo=dt.timezone.utc).timestamp()
+        if isinstance(x, dt.time):
+            raise self.error(key, f"a time of day ({x.isoformat()}) is not an instant: give "
+                                  "seconds or a date or instant")
+        return self.bounded(x, key, -bound, bound, "s")
 
     def boolean(self, x: object, key: str) -> bool:
         if not isinstance(x, bool):

@@ -29,7 +29,7 @@ from rangeproc.estimation.imm import MODEL_NAMES
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
-from rangeproc.fusion.calibration_summary import calibration_summary
+from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
 from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
 from rangeproc.fusion.refraction_rows import RefractionSettings
@@ -341,6 +341,8 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
             tick(1, tid)
         specs = settings.calibration
         for i, sen in enumerate(cfg.sensors):
+            if (offset := time_offset_summary(sen)) is not None:
+                sensor_summary[sen.id]["time_offset"] = offset
             if sen.kind != "ins":
                 sensor_summary[sen.id]["calibration"] = calibration_summary(
                     sen, i, specs[i] if specs else None,

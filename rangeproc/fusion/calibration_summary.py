@@ -5,11 +5,14 @@ Each term is ``{"estimate", "sigma", "unit"}`` plus ``"applied"`` (the rows were
 the estimate is significant, ``fusion.registration.SIGNIFICANCE``) and ``"given"`` (a known
 correction from the config, included in the estimate); a term the data cannot separate is
 ``{"estimate": null, "sigma": null, "unobservable": reason}``; a term the config opted out of
-is ``{"estimate": given or null, "sigma": null, "unit", "not_estimated": reason}``. Estimates
+is ``{"estimate": given or null, "sigma": null, "unit", "not_estimated": reason}``.
+``latency`` is the residual latency after the configured ``time_offset`` (contract section 4),
+never the offset itself, which is reported apart (:func:`time_offset_summary`). Estimates
 of the same sensor from several spans or targets are combined by inverse variance.
 """
 from __future__ import annotations
 
+import datetime as _dt
 from collections.abc import Sequence
 
 import numpy as np
@@ -27,7 +30,32 @@ def sensor_terms(s: SensorSettings) -> tuple[str, ...]:
 
 
 def _given(s: SensorSettings, name: str) -> float:
-    return -s.time_offset if name == "latency" else s.calibration.get(name, 0.0)
+    """The known correction of a term from the config. The latency has none here: the
+    configured ``time_offset`` is applied to the stamps before anything else and reported on
+    its own (:func:`time_offset_summary`); ``latency`` is the residual the data show after it."""
+    return 0.0 if name == "latency" else s.calibration.get(name, 0.0)
+
+
+#: s: a configured ``time_offset`` at least this large aligns a clock scale (seconds of day or
+#: of the GPS week onto the Unix scale of ISO-stamped files); a smaller one corrects a known
+#: latency. Only the wording of the summary and the page depends on it.
+CLOCK_ALIGNMENT_S = 3600.0
+
+
+def time_offset_summary(s: SensorSettings) -> dict | None:
+    """``summary.json`` ``sensors.<id>.time_offset``: the configured offset (s) added to the
+    sensor's stamps, what it does, and the instant it names when it aligns a clock scale; None
+    when no offset is configured."""
+    if s.time_offset == 0.0:
+        return None
+    out: dict = {"value": s.time_offset, "unit": "s"}
+    if abs(s.time_offset) >= CLOCK_ALIGNMENT_S:
+        out["role"] = "clock scale alignment"
+        out["instant"] = (_dt.datetime.fromtimestamp(s.time_offset, _dt.timezone.utc)
+                          .isoformat().replace("+00:00", "Z"))
+    else:
+        out["role"] = "known latency correction"
+    return out
 
 
 def _estimates(index: int, name: str, cals: Sequence[Calibration]

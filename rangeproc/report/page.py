@@ -109,13 +109,25 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
             f"{esc(c)}: {esc(_shown(n.get('apriori'), n.get('unit', '')))} → "
             f"<b>{esc(_shown(n.get('estimated'), n.get('unit', '')))}</b>"
             for c, n in (s.get("noise") or {}).items())
-        cal = "<br>".join(_calibration_cell(name, c)
-                          for name, c in (s.get("calibration") or {}).items())
+        cal = "<br>".join([*_time_offset_cell(s.get("time_offset")),
+                           *(_calibration_cell(name, c)
+                             for name, c in (s.get("calibration") or {}).items())])
         rows.append([esc(sid), esc(s.get("kind", "")), esc(s.get("n_read", s.get("n_rows", "–"))),
                      esc(s.get("n_used", "–")), esc(s.get("n_rejected", "–")), esc(edited),
                      noise or "–", cal or "–"])
     return html_table(["sensor", "kind", "rows read", "used", "rejected (wild)", "edited",
                    "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows, {2, 3, 4, 5})
+
+
+def _time_offset_cell(offset: Mapping[str, Any] | None) -> list[str]:
+    """The configured ``time_offset`` as the user gave it: a clock alignment as seconds and
+    the instant it names, a known latency correction in ms (none: nothing)."""
+    if not offset:
+        return []
+    if offset.get("instant"):
+        return [f"time_offset (clock alignment): {offset['value']:+.3f} s = "
+                f"{esc(offset['instant'])}"]
+    return [f"time_offset (known latency): {esc(_shown(offset['value'], 's'))}"]
 
 
 def _calibration_cell(name: str, c: Mapping[str, Any]) -> str:

@@ -508,21 +508,13 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
         atomic_write_table(out_dir / FILES[sid], cols)
         log.info("simulate: wrote %s (%d rows)", FILES[sid], cols["time"].size)
     atomic_write_table(out_dir / "truth.csv", truth_columns(sc), truth=True)
-    write_truth_calibration(out_dir, {sid: contract_values(sc, sid, f)
-                                      for sid, f in checked.items() if sid in ids},
+    # a latency fault is injected after the sensor's known time_offset: stamp + offset minus
+    # the latency is the true time, so the contract's (residual) latency is the fault itself
+    write_truth_calibration(out_dir, {sid: dict(f) for sid, f in checked.items() if sid in ids},
                             given=bool(faults))
     cfg = out_dir / "scenario.toml"
     atomic_write_text(cfg, config_text(sc, ids, faulted=bool(faults)))
     return cfg
-
-
-def contract_values(sc: Scenario, sid: str, faults: Mapping[str, float]) -> dict[str, float]:
-    """The faults of sensor ``sid`` as the data contract reports them: a latency fault is
-    injected after the sensor's known ``time_offset`` (the row's time plus the offset, minus
-    the latency, is the true time), and the contract's latency is the file's time stamp minus
-    the true time: ``latency - time_offset``."""
-    return {name: value - sc.offset(sid) if name == "latency" else value
-            for name, value in faults.items()}
 
 
 def write_truth_calibration(out_dir: Path, faults: dict[str, dict[str, float]], *,
