@@ -24,15 +24,16 @@ START_SOD = 50400.0                     #: flight start, seconds of day (14:00:0
 DURATION = 120.0                        #: s
 HEIGHT = 3000.0                         #: m above the ellipsoid, constant
 SPEED = 150.0                           #: m/s toward east (constant course)
-GPS_EPOCH_UNIX = 315964800.0            #: 1980-01-06T00:00:00Z; leap seconds ignored here
+GPS_EPOCH_UNIX = 315964800.0            #: 1980-01-06T00:00:00Z
+GPS_UTC_LEAP_S = 18.0                   #: GPS time minus UTC since 2017
 WILD_ROWS = (200, 600, 1000)            #: 0-based radar data rows spoiled by +400 m in range
 SIGMA_RANGE, SIGMA_ANGLE_DEG = 5.0, 0.01
 SIGMA_GPS_H, SIGMA_GPS_V = 2.0, 3.0
 
 
 def seconds_of_week(unix: np.ndarray) -> np.ndarray:
-    """GPS seconds of week (no leap-second correction: only the scale matters here)."""
-    return (np.asarray(unix) - GPS_EPOCH_UNIX) % (7 * 86400.0)
+    """GPS seconds of week of Unix (UTC) times ``unix`` (GPS time is 18 s ahead of UTC)."""
+    return (np.asarray(unix) + GPS_UTC_LEAP_S - GPS_EPOCH_UNIX) % (7 * 86400.0)
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ import numpy as np
 
 from rangeproc.config import MAX_ABS_TIME, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
+from rangeproc.editing.timescale import scale_hint
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog, select_rows
 
@@ -135,7 +136,8 @@ def check_overlap(logs: Mapping[str, SensorLog], sensors: Sequence[SensorSetting
 
     Raises:
         DataError: ``<file>: sensor <id> time span A to B s does not come within <margin> s of
-            the other sensors (C to D s) ...``.
+            the other sensors (C to D s): <both scales and the aligning time_offset> ...``
+            (``editing.timescale``).
     """
     by_id = {s.id: s for s in sensors}
     observing = [s.id for s in sensors if s.kind != "ins" and len(logs[s.id])]
@@ -161,9 +163,10 @@ def check_overlap(logs: Mapping[str, SensorLog], sensors: Sequence[SensorSetting
     _, sid, ref = max(failures, key=lambda f: f[0])
     s = by_id[sid]
     what = "the sensors on its platform" if s.kind == "ins" else "the other sensors"
+    hint = scale_hint(logs[sid].time, ref) or "likely a wrong time scale or time_offset"
     raise DataError(
         f"{s.file.name}: sensor {sid} time span {_span(logs[sid].time)} does not come within "
-        f"{margin:g} s of {what} ({_span(ref)}): likely a wrong time scale or time_offset "
+        f"{margin:g} s of {what} ({_span(ref)}): {hint} "
         f"(set allow_disjoint_time = true for sensor {sid} if this is intended)")
 
 
