@@ -23,10 +23,12 @@ from rangeproc.config import Config, SensorSettings, TargetSettings, load_config
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.editing.table import edit_table
+from rangeproc.editing.units import UnitSuspicion, angle_unit_checks
 from rangeproc.errors import ConfigError, DataError
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm import MODEL_NAMES
 from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
 from rangeproc.fusion.batch import merge
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
@@ -198,6 +200,36 @@ def assemble_all(cfg: Config, frame: RangeFrame, logs: dict[str, SensorLog],
     return out
 
 
+def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
+                        suspicions: dict[str, UnitSuspicion]) -> None:
+    """One line per sensor that does not fit: a sensor whose rows sit far from every other
+    sensor's view (``fusion.agreement``) and whose angles also fit a smaller unit
+    (``editing.units``) cannot be meant so (DataError); either finding alone is a warning, and
+    two sensors that only see each other far away get one line naming both."""
+    files = {s.id: s.file.name for s in cfg.sensors}
+    far = {f.sensor_id: f for f in far_sensors(tracks, [s.id for s in cfg.sensors])}
+    for sid, f in far.items():
+        if sid in suspicions:
+            u = suspicions[sid]
+            raise DataError(
+                f"{u.text.split(' (set angle_unit')[0]}, and read as {u.configured} its rows sit "
+                f"{f.distance_m / 1e3:.3g} km from every other sensor's view of the objects at "
+                f"the same times ({', '.join(f.others)}): set angle_unit = \"{u.likely}\"")
+    said: set[str] = set()
+    for sid, f in far.items():
+        if sid in said:
+            continue
+        mate = far.get(f.others[0]) if len(f.others) == 1 else None
+        if mate is not None and mate.others == (sid,):
+            log.warning("%s", pair_line(f, mate, files))
+            said.add(mate.sensor_id)
+        else:
+            log.warning("%s", far_line(f, files[sid]))
+    for sid, u in suspicions.items():
+        if sid not in far:
+            log.warning("%s", u.text)
+
+
 def _time_span(t: np.ndarray) -> dict[str, float | None]:
     """``t_first``, ``t_last`` (s, range time scale) of a sensor's screened rows (None when
     it has none)."""
@@ -269,6 +301,7 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     frame = RangeFrame(cfg.origin)
     with clock.stage("read", len(cfg.sensors)) as tick:
         raw = read_all(cfg, tick)
+    unit_suspicions = angle_unit_checks(cfg.sensors, raw)
     edits = EditRecord()
     with clock.stage("screen", len(cfg.sensors)) as tick:
         logs = screen_logs(cfg, raw, edits, tick)
@@ -347,6 +380,7 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                 sensor_summary[sen.id]["calibration"] = calibration_summary(
                     sen, i, specs[i] if specs else None,
                     [c for _, result in fused for c in result.calibration])
+    report_disagreement(cfg, tracks, unit_suspicions)
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")

@@ -66,12 +66,14 @@ def iso(unix: np.ndarray) -> list[str]:
 
 def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
                 angle_unit: str = "deg", with_gps: bool = True, time_offset: str | None = "auto",
-                radar_phase: float = 0.0, seed: int = 7) -> Flight:
+                radar_phase: float = 0.0, config_site: tuple[float, float, float] = SITE,
+                seed: int = 7) -> Flight:
     """Write R1.csv (and G1.csv), config.toml and truth.csv into ``folder``.
 
     Args:
         scale: the radar's float time scale: "sod" (seconds of day), "unix", "gpsweek".
-        radar_angles: unit the azimuth/elevation values are actually written in ("deg"/"rad").
+        radar_angles: unit the azimuth/elevation values are actually written in ("deg", "rad",
+            "mil").
         angle_unit: what the config claims for the radar.
         with_gps: also write a GPS with ISO stamps (Unix scale).
         time_offset: the radar's ``time_offset`` as written in the config: "auto" aligns the
@@ -79,6 +81,8 @@ def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
             leaves it out.
         radar_phase: s added to every radar stamp (0.05 puts a 10 Hz radar exactly half an
             output interval off the 10 Hz output grid).
+        config_site: the radar site written in the config (lat, lon, height); the data are
+            always made from :data:`SITE`.
     """
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -91,8 +95,9 @@ def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
     r[list(WILD_ROWS)] += 400.0
     a = az + rng.normal(0.0, SIGMA_ANGLE_DEG, unix.size)
     e = el + rng.normal(0.0, SIGMA_ANGLE_DEG, unix.size)
-    if radar_angles == "rad":
-        a, e = np.radians(a), np.radians(e)
+    if radar_angles != "deg":
+        scale_to = {"rad": np.pi / 180.0, "mil": 6400.0 / 360.0}[radar_angles]
+        a, e = a * scale_to, e * scale_to
     if scale == "sod":
         stamps, offset = unix - DAY_UNIX, DAY_UNIX
     elif scale == "unix":
@@ -105,10 +110,11 @@ def make_flight(folder: Path, *, scale: str = "sod", radar_angles: str = "deg",
     lines = ["time,range,azimuth,elevation"]
     lines += [f"{s:.6f},{ri:.3f},{ai:.8f},{ei:.8f}" for s, ri, ai, ei in zip(stamps, r, a, e)]
     (folder / "R1.csv").write_text("\n".join(lines) + "\n")
-    sig_angle = SIGMA_ANGLE_DEG if angle_unit == "deg" else np.radians(SIGMA_ANGLE_DEG)
+    sig_angle = SIGMA_ANGLE_DEG * {"deg": 1.0, "rad": np.pi / 180.0, "mil": 6400.0 / 360.0}[
+        angle_unit]
     radar = [
         '[[sensors]]', 'id = "R1"', 'kind = "radar"', 'file = "R1.csv"',
-        f'site = {{ lat = {SITE[0]}, lon = {SITE[1]}, height = {SITE[2]} }}',
+        f'site = {{ lat = {config_site[0]}, lon = {config_site[1]}, height = {config_site[2]} }}',
         f'angle_unit = "{angle_unit}"',
         f'sigma = {{ range = {SIGMA_RANGE}, azimuth = {sig_angle}, elevation = {sig_angle} }}',
     ]
