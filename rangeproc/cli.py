@@ -243,8 +243,12 @@ def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_s
 @click.option("--cutoff", type=click.FloatRange(min=0.0, min_open=True), default=50.0,
               show_default=True,
               help="Multi-object assignment and GOSPA cutoff distance (m).")
+@click.option("--origin", "origin", default=None, metavar="LAT,LON,HEIGHT",
+              help="Range origin (WGS-84 degrees, degrees, metres above the ellipsoid) for a "
+                   "truth in lat, lon, height; overrides the [range] origin of the run's "
+                   "config (named in OUT_DIR/summary.json).")
 @library_errors
-def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
+def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float, origin: str | None) -> None:
     """Compare OUT_DIR/fused.parquet with a TRUTH trajectory (CSV or Parquet).
 
     Prints position/velocity RMSE, 95th percentiles, the fraction of epochs inside 3 sigma and
@@ -253,12 +257,34 @@ def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float) -> None:
     truth objects by position at every epoch (within --cutoff) and prints per truth object the
     best-matching fused object, its RMSE, coverage, identity swaps and fragmentation, and the
     GOSPA metric over time (per-epoch values in OUT_DIR/evaluation_gospa.parquet).
+
+    \b
+    TRUTH columns (a header row; other columns are ignored):
+      time            float seconds on the fused output's time scale, or
+                      ISO-8601 with Z or a UTC offset (read as Unix seconds,
+                      as in the sensor files); one form per column
+      e, n, u         position in the range ENU frame (m), or
+      lat, lon, height  WGS-84 degrees and metres above the ellipsoid,
+                      converted with the range origin (--origin, else the
+                      run's config); with both, e, n, u is used
+      ve, vn, vu      optional velocity (m/s): range ENU with e, n, u, local
+                      ENU at the point with lat, lon, height; without them
+                      velocity is not evaluated
+      target_id       optional; without it the file is one object
+
+    Truth is interpolated linearly to the fused epochs within its time span, never beyond;
+    the epochs evaluated and those without truth are counted per target. Exit status 2, with
+    one line naming the file, 1-based data row and column, for a bad truth cell; also for a
+    geodetic truth without an origin, and for truth and fused times that do not overlap.
     """
     from rangeproc.evaluate import evaluate_run, format_report
+    from rangeproc.evaluate.origin import parse_origin
     from rangeproc.io.writers import write_json
 
     metrics = evaluate_run(out_dir, truth, cutoff=cutoff,
-                           series_path=Path(out_dir) / "evaluation_gospa.parquet")
+                           series_path=Path(out_dir) / "evaluation_gospa.parquet",
+                           origin=parse_origin(origin) if origin is not None else None,
+                           require_overlap=True)
     write_json(metrics, Path(out_dir) / "evaluation.json")
     click.echo(format_report(metrics))
 

@@ -1,9 +1,11 @@
 """Accuracy and consistency of a fused trajectory against truth.
 
 ``evaluate_run(out_dir, truth_path)`` reads ``out_dir/fused.parquet`` (data contract section 4)
-and a truth table (CSV or Parquet: ``target_id, time, e, n, u, ve, vn, vu``; ``target_id``
-optional, default "T1"), linearly interpolates truth to the fused epochs that lie inside the
-truth span, and returns per-target errors (range ENU frame, m and m/s) and position NEES.
+and a truth table (:mod:`rangeproc.evaluate.truth`: ``time`` as float seconds or ISO-8601,
+position as ``e, n, u`` in range ENU or ``lat, lon, height`` converted with the range origin,
+optional ``ve, vn, vu`` and ``target_id``), linearly interpolates truth to the fused epochs
+that lie inside the truth span (never beyond it), and returns per-target errors (range ENU
+frame, m and m/s; velocity metrics None when the truth has no velocity) and position NEES.
 NEES uses the full 3x3 position covariance when the fused file has ``cov_en, cov_eu, cov_nu``,
 else the diagonal ``sigma_e/n/u``. Successive epochs are correlated, so the chi-square bounds
 of the mean NEES are reported for reference, not as a test.
@@ -26,11 +28,12 @@ from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.errors import DataError, NumericalError
 from rangeproc.evaluate.multi import format_multi, gospa_series, multi_object_metrics, summarise
+from rangeproc.evaluate.truth import Truth, check_overlap, load_truth, span_text
 from rangeproc.io.writers import write_parquet
+from rangeproc.settings import Geodetic
 
 FUSED_COLUMNS = ("target_id", "time", "e", "n", "u", "ve", "vn", "vu",
                  "sigma_e", "sigma_n", "sigma_u")
-TRUTH_COLUMNS = ("time", "e", "n", "u", "ve", "vn", "vu")
 COV_COLUMNS = ("cov_en", "cov_eu", "cov_nu")
 
 
@@ -83,15 +86,19 @@ def position_covariance(df: pd.DataFrame) -> np.ndarray:
     return cov
 
 
-def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray, cov: np.ndarray,
+_NO_VELOCITY = {"vel_rmse": None, "vel_rmse_enu": None, "vel_p95": None}
+
+
+def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray | None, cov: np.ndarray,
                   where: str = "") -> dict[str, Any]:
-    """Metrics of position errors (N, 3) m, velocity errors (N, 3) m/s, covariance (N, 3, 3)."""
+    """Metrics of position errors (N, 3) m, velocity errors (N, 3) m/s (None: the truth has no
+    velocity, velocity metrics None) and position covariance (N, 3, 3) m^2."""
     n = pos_err.shape[0]
     if n == 0:
         return {"n_epochs": 0, "pos_rmse": None, "pos_rmse_enu": None, "pos_p95": None,
-                "vel_rmse": None, "vel_rmse_enu": None, "vel_p95": None,
-                "inside_3sigma_enu": None, "nees_pos_mean": None, "nees_pos_chi2_95": None}
-    pos_norm, vel_norm = np.linalg.norm(pos_err, axis=1), np.linalg.norm(vel_err, axis=1)
+                **_NO_VELOCITY, "inside_3sigma_enu": None, "nees_pos_mean": None,
+                "nees_pos_chi2_95": None}
+    pos_norm = np.linalg.norm(pos_err, axis=1)
     sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
     try:
         # NEES_k = e_k^T P_k^-1 e_k (3 dof)
@@ -104,13 +111,19 @@ def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray, cov: np.ndarray,
         "pos_rmse": _f(np.sqrt(np.mean(pos_norm**2))),
         "pos_rmse_enu": [_f(x) for x in np.sqrt(np.mean(pos_err**2, axis=0))],
         "pos_p95": _f(np.percentile(pos_norm, 95)),
-        "vel_rmse": _f(np.sqrt(np.mean(vel_norm**2))),
-        "vel_rmse_enu": [_f(x) for x in np.sqrt(np.mean(vel_err**2, axis=0))],
-        "vel_p95": _f(np.percentile(vel_norm, 95)),
+        **(_NO_VELOCITY if vel_err is None else _velocity_metrics(vel_err)),
         "inside_3sigma_enu": [_f(x) for x in np.mean(np.abs(pos_err) <= 3 * sigma, axis=0)],
         "nees_pos_mean": _f(np.mean(nees)),
         "nees_pos_chi2_95": [_f(lo), _f(hi)],
     }
+
+
+def _velocity_metrics(vel_err: np.ndarray) -> dict[str, Any]:
+    """RMSE (norm and per axis) and 95th percentile of velocity errors (N, 3) m/s, N > 0."""
+    vel_norm = np.linalg.norm(vel_err, axis=1)
+    return {"vel_rmse": _f(np.sqrt(np.mean(vel_norm**2))),
+            "vel_rmse_enu": [_f(x) for x in np.sqrt(np.mean(vel_err**2, axis=0))],
+            "vel_p95": _f(np.percentile(vel_norm, 95))}
 
 
 def _f(x: float) -> float | None:
@@ -120,13 +133,21 @@ def _f(x: float) -> float | None:
 
 def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
                  series_path: Path | None = None,
-                 observed: Mapping[str, tuple[float, float]] | None = None) -> dict[str, Any]:
+                 observed: Mapping[str, tuple[float, float]] | None = None, *,
+                 origin: Geodetic | None = None, require_overlap: bool = False
+                 ) -> dict[str, Any]:
     """Compare ``out_dir/fused.parquet`` with truth; JSON-serialisable result.
 
-    Returns {"fused": path, "truth": path, "targets": {target_id: metrics}, "unmatched":
-    [target ids of fused that truth lacks]}; metrics as :func:`error_metrics` (n_epochs counts
-    the fused epochs inside the truth span with finite state and sigmas). For several objects
-    also "multi": :func:`rangeproc.evaluate.multi.summarise` with assignment cutoff ``cutoff``
+    Returns {"fused": path, "truth": path, "truth_format": :meth:`Truth.describe`,
+    "targets": {target_id: metrics}, "unmatched": [target ids of fused that truth lacks]};
+    metrics as :func:`error_metrics` plus the epoch counts of :func:`target_metrics`
+    (n_epochs counts the fused epochs inside the truth span with finite state and sigmas).
+    A truth without ``target_id`` is one object: it is compared with the fused target when
+    there is one, else named "T1". A geodetic truth is converted with ``origin`` (deg, deg, m)
+    when given, else with the ``[range] origin`` of the run's config (``out_dir/summary.json``).
+    ``require_overlap``: DataError naming both time spans when no fused epoch lies in the
+    truth's span (else every target reports 0 epochs). For several objects also "multi":
+    :func:`rangeproc.evaluate.multi.summarise` with assignment cutoff ``cutoff``
     (m); then, if ``series_path`` is given, the per-epoch GOSPA table
     (:func:`rangeproc.evaluate.multi.gospa_series`) is written there as Parquet and
     "multi"["gospa"]["series_file"] names it. ``observed``: truth id -> (first, last) time
@@ -134,37 +155,61 @@ def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
     """
     fused_path, truth_path = Path(out_dir) / "fused.parquet", Path(truth_path)
     fused = _read(fused_path, FUSED_COLUMNS)
-    truth = _read(truth_path, TRUTH_COLUMNS)
-    truth_ids = (truth["target_id"].astype(str) if "target_id" in truth.columns
-                 else pd.Series("T1", index=truth.index))
+    truth = load_truth(truth_path, Path(out_dir), origin)
+    if require_overlap:
+        check_overlap(fused["time"].to_numpy(float), truth, fused_path.name)
+    fused_ids = fused["target_id"].astype(str)
+    truth_ids = _truth_ids(truth, fused_ids)
     result: dict[str, Any] = {"fused": str(fused_path), "truth": str(truth_path),
-                              "targets": {}, "unmatched": []}
-    for tid, grp in fused.groupby(fused["target_id"].astype(str), sort=True):
-        tru = truth[truth_ids == tid]
-        if tru.empty:
+                              "truth_format": truth.describe(), "targets": {},
+                              "unmatched": []}
+    for tid, grp in fused.groupby(fused_ids, sort=True):
+        sel = truth_ids == tid
+        if not sel.any():
             result["unmatched"].append(tid)
             continue
-        t = grp["time"].to_numpy(float)
-        ref, inside = interpolate_truth(tru["time"].to_numpy(float),
-                                        tru[list(TRUTH_COLUMNS[1:])].to_numpy(float), t)
-        est = grp[list(TRUTH_COLUMNS[1:])].to_numpy(float)
-        cov = position_covariance(grp)
-        ok = inside & np.isfinite(est).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
-        err = est[ok] - ref[ok]
-        result["targets"][tid] = error_metrics(err[:, :3], err[:, 3:], cov[ok],
-                                               f"{fused_path}: target {tid}")
-    fused_ids = fused["target_id"].astype(str)
-    if truth_ids.nunique() > 1 or fused_ids.nunique() > 1 or result["unmatched"]:
+        result["targets"][tid] = target_metrics(grp, truth, sel, f"{fused_path}: target {tid}")
+    if len(np.unique(truth_ids)) > 1 or fused_ids.nunique() > 1 or result["unmatched"]:
         ev = multi_object_metrics(
             fused["time"].to_numpy(float), _str_array(fused_ids),
-            fused[["e", "n", "u"]].to_numpy(float), truth["time"].to_numpy(float),
-            _str_array(truth_ids), truth[["e", "n", "u"]].to_numpy(float), cutoff=cutoff,
-            where=str(fused_path))
+            fused[["e", "n", "u"]].to_numpy(float), truth.time, truth_ids, truth.pos,
+            cutoff=cutoff, where=str(fused_path))
         result["multi"] = summarise(ev, observed)
         if series_path is not None:
             write_parquet(pd.DataFrame(gospa_series(ev)), series_path)
             result["multi"]["gospa"]["series_file"] = str(series_path)
     return result
+
+
+def _truth_ids(truth: Truth, fused_ids: pd.Series) -> np.ndarray:
+    """(S,) str id of each truth row: the file's, or for a file without ids the only fused
+    target's id ("T1" when the fused output has several)."""
+    if truth.target_id is not None:
+        return truth.target_id
+    only = fused_ids.unique()
+    return np.full(truth.time.size, str(only[0]) if only.size == 1 else "T1")
+
+
+def target_metrics(grp: pd.DataFrame, truth: Truth, sel: np.ndarray, where: str
+                   ) -> dict[str, Any]:
+    """:func:`error_metrics` of one fused target (rows ``grp``) against the truth rows ``sel``
+    (S,) bool, with its epoch counts: n_fused_epochs (its rows), n_without_truth (outside the
+    truth span), n_not_finite (inside, but non-finite state or sigma), truth_span [s, s]."""
+    t = grp["time"].to_numpy(float)
+    cols = ["e", "n", "u"] + (["ve", "vn", "vu"] if truth.vel is not None else [])
+    x_truth = truth.pos[sel] if truth.vel is None else np.hstack((truth.pos[sel],
+                                                                   truth.vel[sel]))
+    ref, inside = interpolate_truth(truth.time[sel], x_truth, t)
+    est = grp[cols].to_numpy(float)
+    cov = position_covariance(grp)
+    ok = inside & np.isfinite(est).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
+    err = est[ok] - ref[ok]
+    out = error_metrics(err[:, :3], err[:, 3:] if truth.vel is not None else None, cov[ok],
+                        where)
+    out.update(n_fused_epochs=int(t.size), n_without_truth=int((~inside).sum()),
+               n_not_finite=int((inside & ~ok).sum()),
+               truth_span=[float(truth.time[sel].min()), float(truth.time[sel].max())])
+    return out
 
 
 def _str_array(ids: pd.Series) -> np.ndarray:
@@ -178,7 +223,9 @@ def format_report(metrics: dict[str, Any]) -> str:
     head = (f"{'target':<8}{'epochs':>8}  {'pos RMSE m (E/N/U)':<26}{'pos p95':>8}  "
             f"{'vel RMSE m/s (E/N/U)':<26}{'vel p95':>8}  {'in 3sigma E/N/U':<17}"
             f"{'NEES':>7}  {'95% bounds':<13}")
-    lines = [f"fused: {metrics.get('fused', '?')}", f"truth: {metrics.get('truth', '?')}",
+    fmt = metrics.get("truth_format")
+    lines = [f"fused: {metrics.get('fused', '?')}",
+             f"truth: {metrics.get('truth', '?')}" + (f" ({_format_text(fmt)})" if fmt else ""),
              head, "-" * len(head)]
     for tid, m in metrics.get("targets", {}).items():
         if not m["n_epochs"]:
@@ -186,12 +233,18 @@ def format_report(metrics: dict[str, Any]) -> str:
             continue
         pe, ve, ins = m["pos_rmse_enu"], m["vel_rmse_enu"], m["inside_3sigma_enu"]
         pos = f"{m['pos_rmse']:.2f} ({pe[0]:.2f}/{pe[1]:.2f}/{pe[2]:.2f})"
-        vel = f"{m['vel_rmse']:.3f} ({ve[0]:.3f}/{ve[1]:.3f}/{ve[2]:.3f})"
+        vel = ("n/a" if m["vel_rmse"] is None
+               else f"{m['vel_rmse']:.3f} ({ve[0]:.3f}/{ve[1]:.3f}/{ve[2]:.3f})")
+        vel_p95 = "n/a" if m["vel_p95"] is None else f"{m['vel_p95']:.3f}"
         inside = f"{ins[0]:.3f}/{ins[1]:.3f}/{ins[2]:.3f}"
         lo, hi = m["nees_pos_chi2_95"]
         lines.append(f"{tid:<8}{m['n_epochs']:>8}  {pos:<26}{m['pos_p95']:>8.2f}  {vel:<26}"
-                     f"{m['vel_p95']:>8.3f}  {inside:<17}{_num(m['nees_pos_mean']):>7}  "
+                     f"{vel_p95:>8}  {inside:<17}{_num(m['nees_pos_mean']):>7}  "
                      f"[{lo:.2f}, {hi:.2f}]")
+    lines += [_epochs_text(tid, m) for tid, m in metrics.get("targets", {}).items()
+              if "n_fused_epochs" in m]
+    if fmt and not fmt["velocity"]:
+        lines.append("velocity not evaluated: the truth has no ve, vn, vu columns")
     if metrics.get("unmatched"):
         lines.append("unmatched (no truth): " + ", ".join(metrics["unmatched"]))
     lines.append("NEES: mean position NEES (3 dof, consistent ~3); bounds assume independent "
@@ -203,3 +256,21 @@ def format_report(metrics: dict[str, Any]) -> str:
 
 def _num(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.2f}"
+
+
+def _format_text(fmt: dict[str, Any]) -> str:
+    """The truth's columns and, for a geodetic truth, the origin used and its source."""
+    text = fmt["position"] + (", ve, vn, vu" if fmt["velocity"] else "")
+    if fmt.get("origin"):
+        lat, lon, h = fmt["origin"]
+        text += f"; range origin {lat:g}, {lon:g}, {h:g} m from {fmt['origin_source']}"
+    return text
+
+
+def _epochs_text(tid: str, m: dict[str, Any]) -> str:
+    """How many of a target's fused epochs were evaluated, and why the others were not."""
+    text = (f"epochs {tid}: {m['n_epochs']} of {m['n_fused_epochs']} fused epochs evaluated, "
+            f"{m['n_without_truth']} without truth")
+    if m.get("n_not_finite"):
+        text += f", {m['n_not_finite']} with a non-finite state or sigma"
+    return text + f"; truth span {span_text(*m['truth_span'])}"

@@ -96,9 +96,9 @@ def read_sensor(settings: SensorSettings) -> SensorLog:
     text = set(txt_req + txt_opt)
     try:
         if suffix in _CSV_SUFFIXES:
-            table = _read_csv(path, wanted, text)
+            table = read_csv_table(path, wanted, text)
         else:
-            table = _read_parquet(path, wanted)
+            table = read_parquet_table(path, wanted)
     except OSError as exc:
         raise DataError(f"{name}: cannot read file ({exc.strerror or exc})") from None
     if table.num_rows == 0:
@@ -143,7 +143,10 @@ def _csv_header(path: Path) -> list[str]:
     return header
 
 
-def _read_csv(path: Path, wanted: Mapping[str, bool], text: set[str]) -> pa.Table:
+def read_csv_table(path: Path, wanted: Mapping[str, bool], text: set[str]) -> pa.Table:
+    """The ``wanted`` columns (name -> required) of CSV file ``path`` as an Arrow table, the
+    ``text`` ones as strings and the rest as float64 where they parse (else as text, for the
+    caller's cell checks); DataError for a missing required column."""
     header = _csv_header(path)
     found = _select(path.name, header, wanted)
     position = {i: key for key, i in found.items()}
@@ -195,7 +198,9 @@ def _csv_parse_error(path: Path, names: list[str], exc: pa.ArrowInvalid) -> Data
 # Parquet
 # --------------------------------------------------------------------------------------------
 
-def _read_parquet(path: Path, wanted: Mapping[str, bool]) -> pa.Table:
+def read_parquet_table(path: Path, wanted: Mapping[str, bool]) -> pa.Table:
+    """The ``wanted`` columns (name -> required) of Parquet file ``path`` as an Arrow table;
+    DataError for an unreadable file or a missing required column."""
     try:
         schema = pq.read_schema(path)
         found = _select(path.name, list(schema.names), wanted)

@@ -315,7 +315,7 @@ def _cli_error(tmp_path, fused: pd.DataFrame, truth: pd.DataFrame) -> str:
     ("truth_empty", "truth.csv: no data rows"),
     ("fused_empty", "fused.parquet: no data rows"),
     ("fused_missing_target_id", "fused.parquet: missing column 'target_id'"),
-    ("truth_not_a_number", "truth.csv: column 'e' row 3: not a number"),
+    ("truth_not_a_number", "truth.csv: row 4, column 'e': 'x' is not a number"),
     ("fused_duplicate_epoch", "fused.parquet: column 'time': target O1 has two rows"),
 ])
 def test_bad_input_is_one_line(tmp_path, case, expect):
