@@ -30,7 +30,7 @@ import numpy as np
 
 from rangeproc.config import MAX_ABS_TIME, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
-from rangeproc.editing.timescale import scale_hint
+from rangeproc.editing.clockscale import scale_hint
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog, select_rows
 
@@ -137,7 +137,7 @@ def check_overlap(logs: Mapping[str, SensorLog], sensors: Sequence[SensorSetting
     Raises:
         DataError: ``<file>: sensor <id> time span A to B s does not come within <margin> s of
             the other sensors (C to D s): <both scales and the aligning time_offset> ...``
-            (``editing.timescale``).
+            (``editing.clockscale``).
     """
     by_id = {s.id: s for s in sensors}
     observing = [s.id for s in sensors if s.kind != "ins" and len(logs[s.id])]

@@ -1,4 +1,4 @@
-"""Clock scales named and aligned (editing.timescale), on hand-made files (tests/newuser.py)."""
+"""Clock scales named and aligned (editing.clockscale), on hand-made files (tests/newuser.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from conftest import describe, invoke
 from newuser import DAY_UNIX, make_flight, seconds_of_week
-from rangeproc.editing.timescale import aligning_offset, clock_scale, describe_scale
+from rangeproc.editing.clockscale import aligning_offset, clock_scale, describe_scale
 
 UNIX = DAY_UNIX + 50400.0 + np.arange(0.0, 120.0, 0.1)     # 2026-05-11 14:00 UTC
 
