@@ -90,6 +90,42 @@ def library_errors(func: Callable[..., Any]) -> Callable[..., Any]:
     return mapped
 
 
+class DebugStream(logging.StreamHandler):  # type: ignore[type-arg]
+    """``--debug``: every log line streamed to stderr as it comes."""
+
+    def __init__(self) -> None:
+        super().__init__(sys.stderr)
+        self.setFormatter(logging.Formatter("rangeproc: %(levelname)s: %(message)s"))
+
+
+def configure_logging(debug: bool) -> None:
+    """Debug: every line to stderr as it comes (:class:`DebugStream`), level DEBUG; else
+    WARNING lines held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
+    earlier in-process invocation, or the group before its command's ``--debug``) added."""
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if isinstance(h, (DeferredLog, DebugStream))]:
+        root.removeHandler(handler)
+    if debug:
+        root.setLevel(logging.DEBUG)
+        root.addHandler(DebugStream())
+    else:
+        root.setLevel(logging.WARNING)
+        root.addHandler(DeferredLog())
+    for noisy in ("numba", "matplotlib", "PIL"):
+        logging.getLogger(noisy).setLevel(logging.WARNING)
+
+
+def debug_option(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Shared ``--debug`` of every command, so that ``rangeproc COMMAND ... --debug`` works as
+    ``rangeproc --debug COMMAND ...`` does (the group's own ``--debug`` stays)."""
+    def turn_on(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+        if value:
+            configure_logging(True)
+
+    return click.option("--debug", is_flag=True, expose_value=False, callback=turn_on,
+                        help="Verbose logging and full tracebacks (as rangeproc --debug).")(func)
+
+
 def quiet_option(func: Callable[..., Any]) -> Callable[..., Any]:
     """Shared ``--quiet`` option: no progress output."""
     return click.option("--quiet", "-q", is_flag=True,
@@ -146,33 +182,31 @@ def main(debug: bool) -> None:
     rejects wild points, stabilises moving-platform measurements, filters and smooths all
     sensors together and writes the fused trajectory per target with its uncertainty.
     """
-    root = logging.getLogger()
-    for handler in [h for h in root.handlers if isinstance(h, DeferredLog)]:
-        root.removeHandler(handler)                  # a previous in-process invocation's
-    if debug:
-        logging.basicConfig(level=logging.DEBUG, format="rangeproc: %(levelname)s: %(message)s")
-    else:
-        root.setLevel(logging.WARNING)
-        root.addHandler(DeferredLog())
-    for noisy in ("numba", "matplotlib", "PIL"):
-        logging.getLogger(noisy).setLevel(logging.WARNING)
+    configure_logging(debug)
 
 
 @main.command("run")
 @click.argument("config", type=click.Path(path_type=Path))
 @quiet_option
+@debug_option
 @library_errors
 def run_cmd(config: Path, quiet: bool) -> None:
     """Process one flight described by CONFIG (TOML, see DATA_CONTRACT.md).
 
-    Writes fused.parquet, summary.json and report/*.png into the config's [output].dir.
+    Writes fused.parquet, summary.json and report/*.png into the config's [output].dir, then
+    (unless --quiet) a headline: each object's epochs, span and 1-sigma position uncertainty,
+    the number of warnings and the report page's path.
     Exit status 0 on success, 2 for unusable input or config, 3 for a numerical failure.
     """
     from rangeproc.pipeline import run
+    from rangeproc.report.headline import headline
 
     out = run(config, clock=_clock(quiet))
     if not quiet:
         click.echo(f"wrote {len(out.written)} files to {out.out_dir}")
+        page = next((p for p in out.written if p.name == "index.html"), None)
+        for line in headline(out.summary, out.tracks, page):
+            click.echo(line)
 
 
 @main.command("simulate")
@@ -205,6 +239,7 @@ def run_cmd(config: Path, quiet: bool) -> None:
               help="With --objects: how many objects (default: drawn within the kind's range; "
                    "scale: 10).")
 @quiet_option
+@debug_option
 @library_errors
 def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_scale: float,
                  faults: str, objects: str | None, n_objects: int | None, quiet: bool) -> None:
@@ -247,6 +282,7 @@ def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_s
               help="Range origin (WGS-84 degrees, degrees, metres above the ellipsoid) for a "
                    "truth in lat, lon, height; overrides the [range] origin of the run's "
                    "config (named in OUT_DIR/summary.json).")
+@debug_option
 @library_errors
 def evaluate_cmd(out_dir: Path, truth: Path, cutoff: float, origin: str | None) -> None:
     """Compare OUT_DIR/fused.parquet with a TRUTH trajectory (CSV or Parquet).
@@ -302,6 +338,7 @@ EXIT_SORTIES_FAILED = 4
 @click.option("--force", is_flag=True,
               help="Rerun every sortie, also those whose outputs match their inputs.")
 @quiet_option
+@debug_option
 @library_errors
 def campaign_cmd(campaign: Path, scheduler: str | None, workers: int | None, force: bool,
                  quiet: bool) -> None:
@@ -333,21 +370,40 @@ def campaign_cmd(campaign: Path, scheduler: str | None, workers: int | None, for
         sys.exit(EXIT_SORTIES_FAILED)
 
 
-@main.command("export")
+class ExportCommand(click.Command):
+    """``export``: a format name left over as an extra argument (``--format kml czml``) gets
+    a hint on how to ask for several formats."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        given = list(args)                        # click's parser consumes ``args``
+        try:
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            if "extra argument" in exc.message and any(
+                    a.lower() in ("kml", "czml", "csv") for a in given):
+                exc.message += (" (several formats: --format kml --format czml, or "
+                                "--format kml,czml)")
+            raise
+
+
+@main.command("export", cls=ExportCommand)
 @click.argument("out_dir", type=click.Path(path_type=Path))
 @click.option("--format", "formats", multiple=True, metavar="kml|czml|csv",
               help="Format to write (repeat or comma-separate for several; default: all "
                    "three).")
-@click.option("--epoch", default="1970-01-01T00:00:00Z", show_default=True,
+@click.option("--epoch", default=None, metavar="ISO",
               help="UTC instant of time 0 on the range's time scale (ISO 8601 with Z or an "
-                   "offset); the default reads the times as Unix seconds.")
+                   "offset, e.g. 2026-05-11T00:00:00Z for seconds of day). Default: the run's "
+                   "[output] epoch, else the times are read as Unix seconds (with a warning "
+                   "when they are not: they then fall on 1970-01-01).")
 @click.option("--interval", type=float, default=0.0, show_default=True,
               help="KML and CZML: at most one epoch per this many seconds per object "
                    "(0: every epoch).")
 @quiet_option
+@debug_option
 @library_errors
-def export_cmd(out_dir: Path, formats: tuple[str, ...], epoch: str, interval: float,
-               quiet: bool) -> None:
+def export_cmd(out_dir: Path, formats: tuple[str, ...], epoch: str | None,
+               interval: float, quiet: bool) -> None:
     """Write OUT_DIR/fused.parquet as fused.kml (Google Earth), fused.czml (Cesium) and
     fused.csv (spreadsheets) beside it.
 

@@ -20,7 +20,7 @@ from rangeproc.config_checks import (ValueChecks, a_kind, join_names, show_value
                                      type_name)
 from rangeproc.errors import DataError
 from rangeproc.interchange import FORMATS
-from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch
+from rangeproc.interchange.trajectories import parse_epoch
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -198,11 +198,13 @@ class _Validator(ValueChecks):
                 raise self.error(f"output.export[{i}]", f"unknown format '{f}' (expected one "
                                  f"of: {join_names(FORMATS)})")
             formats.append(name)
-        epoch = self.string(t.get("epoch", UNIX_EPOCH), "output.epoch")
-        try:
-            parse_epoch(epoch, "output.epoch")
-        except DataError as exc:
-            raise self.error("", str(exc)) from None
+        epoch = None                     # not given: the calendar follows rangeproc.timescale
+        if "epoch" in t:
+            epoch = self.string(t["epoch"], "output.epoch")
+            try:
+                parse_epoch(epoch, "output.epoch")
+            except DataError as exc:
+                raise self.error("", str(exc)) from None
         return OutputSettings(dir=(folder / out_dir).resolve(), rate_hz=rate,
                               export=tuple(dict.fromkeys(formats)), epoch=epoch)
 

@@ -20,6 +20,7 @@ import numpy as np
 
 import rangeproc
 from rangeproc.config import Config, SensorSettings, TargetSettings, load_config
+from rangeproc.editing.audit import edit_summary, rejected_examples
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.editing.table import edit_table
@@ -47,6 +48,7 @@ from rangeproc.parallel import thread_map
 from rangeproc.progress import StageClock
 from rangeproc.results import SensorResiduals, TrackEstimate
 from rangeproc.run_warnings import collect_warnings
+from rangeproc.timescale import time_scale
 from rangeproc.tracking.routing import (
     association_summary,
     association_table,
@@ -384,6 +386,12 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")
+    edit_rows = edit_table(edits, fused, logs, {s.id: s.angle_unit for s in cfg.sensors})
+    for sid, counts in edit_summary(edit_rows, fused, sensor_ids).items():
+        sensor_summary[sid].update(counts)
+    # the calendar of the run's times (UTC clock time or seconds from start on the page)
+    scale = time_scale([tr.time for tr in tracks] + [r.time for r in residuals],
+                       cfg.output.epoch)
     out_dir = make_output_dir(cfg)
     with staged_outputs(out_dir) as stage:
         with clock.stage("write"):
@@ -397,7 +405,7 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
         def write_tables() -> None:     # written while the report's child draws its first figures
             table = fused_table(tracks)
             write_parquet(table, stage / "fused.parquet")
-            write_parquet(edit_table(edits, fused, logs), stage / "edits.parquet")
+            write_parquet(edit_rows, stage / "edits.parquet")
             write_parquet(association, stage / "association.parquet")
             if cfg.output.export:       # [output] export: KML / CZML / CSV beside the table
                 exports.extend(export_run(stage, cfg.output.export, epoch=cfg.output.epoch,
@@ -409,8 +417,8 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                                        sid: ss["calibration"] for sid, ss in
                                        sensor_summary.items() if ss.get("calibration")},
                                    association=association if synthesis is not None else None,
-                                   stray=stray, first=write_tables,
-                                   progress=lambda name: tick(1, name))
+                                   stray=stray, first=write_tables, edits=edit_rows,
+                                   progress=lambda name: tick(1, name), scale=scale)
         summary = {
             "rangeproc_version": rangeproc.__version__,
             "python": _platform.python_version(), "numpy": np.__version__,
@@ -419,7 +427,9 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                        for s in cfg.sensors},
             "sensors": sensor_summary, "targets": target_summary,
             "association": association_summary(synthesis, sensor_ids),
+            "rejected_points": rejected_examples(edit_rows),
             "warnings": warnings,
+            "time_scale": scale.as_dict(),
             "elapsed_s": time.perf_counter() - started,
             "stage_seconds": dict(clock.seconds),
         }

@@ -55,12 +55,13 @@ class OutputSettings:
     """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz);
     ``export``: interchange formats written with every run (``rangeproc.interchange``:
     "kml", "czml", "csv"); ``epoch``: the UTC instant (ISO 8601 with an offset) of time 0 on
-    the range's time scale, for the exports' calendar times."""
+    the range's time scale, for the report's and the exports' calendar times (None: not given;
+    the calendar is then known only for Unix-scale times, ``rangeproc.timescale``)."""
 
     dir: Path
     rate_hz: float = 10.0
     export: tuple[str, ...] = ()
-    epoch: str = "1970-01-01T00:00:00Z"
+    epoch: str | None = None
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

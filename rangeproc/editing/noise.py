@@ -29,6 +29,8 @@ from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
 MAD_TO_SIGMA = 1.482602218505602
 #: Codes of :func:`residual_sigma`'s down-weighting reasons.
 BURST, HUBER = 1, 2
+#: Huber's threshold on the normalised residual (global sigmas): weight ``min(1, k / |u|)``.
+HUBER_K = 2.0
 MIN_ROWS = 20
 
 
@@ -88,7 +90,7 @@ def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
 
 def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
                    used: np.ndarray, *, window: int = 51, burst_ratio: float = 2.0,
-                   huber_k: float = 2.0
+                   huber_k: float = HUBER_K
                    ) -> tuple[np.ndarray, dict[tuple[int, int], float], np.ndarray]:
     """Re-estimate per-row sigmas from smoothed residuals.
 

@@ -5,10 +5,15 @@
 ``fused.czml`` (Cesium: time-tagged positions with a 3-sigma ellipsoid, ``interchange.czml``)
 and ``fused.csv`` (spreadsheets: the table with a UTC column, ``interchange.table``). Times
 become calendar UTC through the epoch of the range's time scale
-(``interchange.trajectories``).
+(``interchange.trajectories``): the one given (``--epoch``, ``[output] epoch``, or the one a
+run's ``summary.json`` recorded from ``[output] epoch``), else the Unix epoch: silently for
+times on the Unix scale (``rangeproc.timescale``), with one warning line for times whose
+calendar date is unknown (e.g. seconds of day, which then fall on 1970-01-01).
 """
 from __future__ import annotations
 
+import json
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -19,6 +24,8 @@ from rangeproc.errors import DataError
 from rangeproc.interchange.trajectories import (UNIX_EPOCH, object_trajectories, parse_epoch,
                                                 read_fused, to_utc)
 
+log = logging.getLogger(__name__)
+
 #: Export formats, in the order they are written.
 FORMATS = ("kml", "czml", "csv")
 #: The files they are written to (in the run's output folder).
@@ -26,13 +33,14 @@ EXPORT_FILES = tuple(f"fused.{fmt}" for fmt in FORMATS)
 
 
 def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
-               epoch: str | np.datetime64 = UNIX_EPOCH, interval_s: float = 0.0,
+               epoch: str | np.datetime64 | None = None, interval_s: float = 0.0,
                dest: Path | None = None, title: str | None = None,
                table: pd.DataFrame | None = None) -> list[Path]:
     """Write ``fused.<format>`` for each of ``formats`` into ``dest`` (default ``out_dir``).
 
     epoch: the UTC instant of time 0 of the range's time scale (ISO 8601 with an offset, or a
-    ``datetime64``); interval_s: at most one epoch per this many seconds per object in KML
+    ``datetime64``; None: :func:`calendar_epoch` decides, warning when the times' calendar
+    date is unknown); interval_s: at most one epoch per this many seconds per object in KML
     and CZML (0: every epoch; the CSV always holds every row); table: the fused table when the
     caller has it (a run that has just written it), else ``OUT_DIR/fused.parquet`` is read.
     Returns the written paths. Raises DataError (exit 2) naming the file or option at fault.
@@ -43,11 +51,14 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
                         f"{', '.join(FORMATS)})")
     if interval_s < 0 or not np.isfinite(interval_s):
         raise DataError(f"--interval: must be a finite number of seconds >= 0, got {interval_s}")
-    origin = parse_epoch(epoch) if isinstance(epoch, str) else np.datetime64(epoch, "ns")
+    given = None if epoch is None else (
+        parse_epoch(epoch) if isinstance(epoch, str) else np.datetime64(epoch, "ns"))
     out_dir = Path(out_dir)
     dest = Path(dest) if dest is not None else out_dir
     if table is None:
         table = read_fused(out_dir)
+    origin = given if given is not None else calendar_epoch(
+        table["time"].to_numpy(float), out_dir)
     utc = to_utc(table["time"].to_numpy(), origin, str(out_dir / "fused.parquet"))
     objects = object_trajectories(table, utc, interval_s)
     title = title or f"rangeproc {out_dir.resolve().name}"
@@ -63,3 +74,31 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
             from rangeproc.interchange.table import write_csv
             written.append(write_csv(table, utc, dest / "fused.csv"))
     return written
+
+
+def calendar_epoch(time: np.ndarray, out_dir: Path) -> np.datetime64:
+    """The UTC instant of time 0 for an export without an epoch: the ``[output] epoch`` that
+    ``OUT_DIR/summary.json`` recorded (``time_scale``), else the Unix epoch. When the times
+    (N,) s are not on the Unix scale (``rangeproc.timescale``) the Unix epoch is still used,
+    with one warning line saying so and naming ``--epoch``."""
+    from rangeproc.timescale import BASIS_EPOCH, on_unix_scale
+
+    try:
+        recorded = json.loads((Path(out_dir) / "summary.json").read_text(encoding="utf-8"))
+        entry = recorded.get("time_scale") or {}
+        if entry.get("basis") == BASIS_EPOCH and isinstance(entry.get("epoch"), str):
+            return parse_epoch(entry["epoch"], "summary.json time_scale.epoch")
+    except (OSError, ValueError, AttributeError, DataError):
+        pass                             # no run summary (or an unreadable one): the rule
+    unix = parse_epoch(UNIX_EPOCH)
+    t = time[np.isfinite(time)]
+    if t.size and not on_unix_scale(float(t.min()), float(t.max())):
+        first = np.datetime_as_string(unix + np.timedelta64(int(round(t.min() * 1e9)), "ns"),
+                                      unit="s")
+        log.warning("export: the times (%.6g to %.6g s) have no known calendar date (not Unix "
+                    "seconds, and no --epoch or [output] epoch given): they were taken as "
+                    "seconds from %s, so they start at %sZ; give the UTC instant of time 0 on "
+                    "the range's time scale with --epoch (or [output] epoch), e.g. the day's "
+                    "00:00 UTC for seconds of day", float(t.min()), float(t.max()), UNIX_EPOCH,
+                    first)
+    return unix

@@ -9,7 +9,6 @@ import io
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +16,11 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
+from matplotlib.ticker import Formatter, Locator
 
 from rangeproc.io.writers import atomic_path
 from rangeproc.results import SensorResiduals, TrackEstimate
+from rangeproc.timescale import TimeScale, utc_text
 
 #: Resolution of every report PNG (dots per inch).
 DPI = 110
@@ -187,18 +188,113 @@ def time_origin(tracks: Sequence[TrackEstimate], views: Sequence[SensorView]) ->
     return min(firsts) if firsts else 0.0
 
 
+class TimeOrigin(float):
+    """t0 (s, range time scale) of the report's time axes that also carries the run's calendar
+    (``scale``, :class:`rangeproc.timescale.TimeScale`; None: unknown). It is a float, so
+    ``t - t0`` is seconds since t0 as before; :func:`time_axis`, :func:`time_label` and
+    :func:`t0_note` read the calendar from it (a plain float: calendar unknown)."""
+
+    scale: TimeScale | None
+
+    def __new__(cls, t0: float, scale: TimeScale | None = None) -> TimeOrigin:
+        obj = super().__new__(cls, t0)
+        obj.scale = scale if scale is not None and scale.known else None
+        return obj
+
+    def __reduce__(self) -> tuple:
+        return (TimeOrigin, (float(self), self.scale))
+
+
+def _scale_of(t0: float) -> TimeScale | None:
+    scale = getattr(t0, "scale", None)
+    return scale if scale is not None and scale.known and np.isfinite(t0) else None
+
+
+#: Tick steps (s) of a UTC clock axis: round seconds, minutes and hours.
+CLOCK_STEPS = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 60.0, 120.0, 300.0,
+               600.0, 900.0, 1200.0, 1800.0, 3600.0, 7200.0, 10800.0, 21600.0, 43200.0,
+               86400.0)
+
+
+def day_seconds(instant: np.datetime64) -> float:
+    """Seconds of ``instant`` after 00:00 UTC of its day."""
+    instant = np.datetime64(instant, "ns")
+    return float((instant - instant.astype("datetime64[D]")) / np.timedelta64(1, "s"))
+
+
+class ClockLocator(Locator):
+    """Ticks of an axis in seconds since t0 at round UTC clock times (every 10 s, 1 min, ...):
+    ``offset`` is t0's seconds after 00:00 UTC of its day."""
+
+    def __init__(self, offset: float, nbins: int = 7) -> None:
+        self.offset, self.nbins = float(offset), int(nbins)
+
+    def __call__(self) -> np.ndarray:
+        vmin, vmax = self.axis.get_view_interval()
+        return self.tick_values(vmin, vmax)
+
+    def tick_values(self, vmin: float, vmax: float) -> np.ndarray:
+        lo, hi = sorted((float(vmin), float(vmax)))
+        span = hi - lo
+        if not (np.isfinite(span) and span > 0):
+            return np.array([lo]) if np.isfinite(lo) else np.zeros(0)
+        step = next((s for s in CLOCK_STEPS if span / s <= self.nbins),
+                    86400.0 * np.ceil(span / 86400.0 / self.nbins))
+        k = np.arange(np.ceil((lo + self.offset) / step), np.floor((hi + self.offset) / step) + 1)
+        return k * step - self.offset
+
+
+class ClockFormatter(Formatter):
+    """Tick labels 'hh:mm:ss' (with tenths when the ticks are closer than 1 s) of an axis in
+    seconds since ``base`` (a UTC ``datetime64``)."""
+
+    def __init__(self, base: np.datetime64) -> None:
+        self.base = np.datetime64(base, "ns")
+        self.tenths = False
+
+    def __call__(self, x: float, pos: int | None = None) -> str:
+        if not np.isfinite(x):
+            return ""
+        instant = self.base + np.timedelta64(int(round(x * 1e9)), "ns")
+        text = utc_text(instant)[11:21]                             # hh:mm:ss.s
+        return text if self.tenths else text[:8]
+
+    def format_ticks(self, values: Sequence[float]) -> list[str]:
+        v = np.asarray(values, dtype=float)
+        steps = np.diff(v[np.isfinite(v)])
+        self.tenths = bool(steps.size and np.min(np.abs(steps)) < 0.999)
+        return [self(x, i) for i, x in enumerate(values)]
+
+
 def time_label(t0: float) -> str:
-    """x-axis label for times relative to ``t0`` (s)."""
-    return "time since first epoch t0 [s]"
+    """x-axis label for times relative to ``t0`` (s): UTC clock time when t0 carries a known
+    calendar (:class:`TimeOrigin`), else seconds from start."""
+    scale = _scale_of(t0)
+    if scale is None:
+        return "time from start t0 [s]"
+    return f"time, UTC on {utc_text(scale.utc(t0))[:10]} [hh:mm:ss]"
+
+
+def time_axis(ax: Axes, t0: float) -> None:
+    """Label ``ax``'s x axis (seconds since ``t0``) with :func:`time_label`; with a known
+    calendar its ticks are also round UTC clock times labelled 'hh:mm:ss' (the data stay
+    seconds since t0). Axes sharing x with ``ax`` share the ticks."""
+    ax.set_xlabel(time_label(t0))
+    scale = _scale_of(t0)
+    if scale is not None:
+        base = scale.utc(t0)
+        ax.xaxis.set_major_locator(ClockLocator(day_seconds(base)))
+        ax.xaxis.set_major_formatter(ClockFormatter(base))
 
 
 def t0_note(t0: float) -> str:
-    """One-line footnote naming t0, with the UTC date when t0 looks like a Unix time."""
-    note = f"t0 = {t0:.3f} s (range time scale)"
-    if 1.0e9 < t0 < 4.1e9:
-        utc = datetime.fromtimestamp(t0, tz=timezone.utc)
-        note += f" = {utc.strftime('%Y-%m-%d %H:%M:%S')} UTC if Unix time"
-    return note
+    """One-line footnote naming t0: its UTC instant and raw range time when the calendar is
+    known, else its raw range time with a word on the unknown calendar."""
+    scale = _scale_of(t0)
+    if scale is None:
+        return (f"t0 = {float(t0):.3f} s on the range time scale; calendar date unknown "
+                "(set [output] epoch for UTC)")
+    return f"t0 = {scale.clock(t0)} ({float(t0):.3f} s on the range time scale)"
 
 
 def new_figure(width_in: float, height_in: float) -> Figure:

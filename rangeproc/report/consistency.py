@@ -26,7 +26,7 @@ from rangeproc.report.common import (
     log_axis,
     new_figure,
     t0_note,
-    time_label,
+    time_axis,
 )
 
 #: Windows per sensor aimed at (window length W = rows / this, clipped to the limits below).
@@ -92,7 +92,7 @@ def plot_consistency(views: Sequence[SensorView], t0: float) -> Figure:
             ax_t.tick_params(labelbottom=False)
             ax_h.tick_params(labelbottom=False)
         else:
-            ax_t.set_xlabel(time_label(t0))
+            time_axis(ax_t, t0)
             ax_h.set_xlabel("residual / σ")
     if not views:
         ax = fig.add_subplot(gs[0, :])

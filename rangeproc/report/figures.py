@@ -18,13 +18,15 @@ from matplotlib.figure import Figure
 
 from rangeproc.parallel import shared_with_child
 from rangeproc.report.calibration import plot_calibration
-from rangeproc.report.common import STYLE, merge_sensors, safe_name, save_figure, time_origin
+from rangeproc.report.common import (STYLE, TimeOrigin, merge_sensors, safe_name, save_figure,
+                                     time_origin)
 from rangeproc.report.consistency import plot_consistency
 from rangeproc.report.objects import plot_object_timeline, plot_plan
-from rangeproc.report.residuals import plot_residuals
+from rangeproc.report.residuals import plot_residuals, rejected_points
 from rangeproc.report.timeline import plot_coverage
 from rangeproc.report.trajectory import plot_trajectory
 from rangeproc.results import SensorResiduals, TrackEstimate
+from rangeproc.timescale import TimeScale, time_scale
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +59,9 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
                  progress: Callable[[str], None] | None = None,
                  association: pd.DataFrame | None = None,
                  stray: np.ndarray | None = None,
-                 first: Callable[[], None] = lambda: None) -> list[Path]:
+                 first: Callable[[], None] = lambda: None,
+                 edits: pd.DataFrame | None = None,
+                 scale: TimeScale | None = None) -> list[Path]:
     """Draw and write the report figures into ``report_dir`` (created if missing).
 
     tracks: smoothed trajectories (range ENU metres, s); residuals: post-fit residual sets
@@ -68,7 +72,12 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     ``association.parquet`` table (columns sensor, row, time, target_id, segment, reason);
     stray: (M, 3) range ENU metres of the unassigned / clutter plots, drawn grey in the plan;
     first: other work this process does while the forked child draws its first figures
-    (``rangeproc.parallel.shared_with_child``; before any figure when drawing in one process).
+    (``rangeproc.parallel.shared_with_child``; before any figure when drawing in one process);
+    edits: the ``edits.parquet`` table, whose rejected points (those removed before
+    estimation too) the residual figures draw (``residuals.rejected_points``);
+    scale: the run's calendar (``rangeproc.timescale``; default: the module's rule on the
+    tracks' and residuals' times without an epoch): time axes show UTC clock time when it is
+    known, else seconds from the first epoch.
 
     Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor (after the calibration's
     corrections), ``consistency.png``, ``coverage.png``, ``objects.png`` (which sensor saw
@@ -82,11 +91,13 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     report_dir.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda msg: None)
     views = merge_sensors(residuals)
-    t0 = time_origin(tracks, views)
+    if scale is None:
+        scale = time_scale([tr.time for tr in tracks] + [v.time for v in views])
+    t0 = TimeOrigin(time_origin(tracks, views), scale)
     jobs: list[tuple[str, Callable[[], Figure]]] = [
         ("trajectory.png", lambda: plot_trajectory(tracks, sites, t0))]
     for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
-        jobs.append((name, lambda v=view: plot_residuals(v, t0)))
+        jobs.append((name, lambda v=view: plot_residuals(v, t0, rejected_points(v, edits))))
     jobs.append(("consistency.png", lambda: plot_consistency(views, t0)))
     jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0)))
     if association is not None and len(association):

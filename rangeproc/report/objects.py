@@ -27,7 +27,7 @@ from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
 
 from rangeproc.report.common import CYCLE, break_gaps, new_figure, stride_indices, t0_note, \
-    time_label, true_runs
+    time_axis, true_runs
 from rangeproc.report.timeline import RESOLUTION, _median_step, used_spans
 from rangeproc.report.trajectory import MAX_TRACK_POINTS, _draw_sites
 from rangeproc.results import TrackEstimate
@@ -303,7 +303,7 @@ def plot_object_timeline(association: pd.DataFrame, tracks: Sequence[TrackEstima
     ax.tick_params(axis="y", length=0)
     ax.set_ylim(-0.5, n_lane - 0.5)
     ax.set_xlim(lo - 0.01 * span, hi + 0.01 * span)
-    ax.set_xlabel(time_label(t0))
+    time_axis(ax, t0)
     ax.grid(axis="y", visible=False)
     _sensor_axis(ax, sensor_ids, n_lane, y_of)
 

@@ -6,11 +6,17 @@ disk, a mail or a share with no network and nothing else beside it. The tables:
 
 * **objects**: span, duration, epochs, gaps (count, longest), largest 1-sigma position
   uncertainty, the process noise found, divergence resets, segments associated;
-* **sensors**: rows read, used, rejected as wild, edited; noise a priori and estimated per
-  component; calibration estimates with their 1-sigma, or why a term is unobservable.
+* **sensors**: rows read, used, rejected points (not used at all: edited before estimation
+  or rejected by the gate) per reason, down-weighted components with the count Gaussian noise
+  gives; noise a priori and estimated per component; calibration estimates with their
+  1-sigma, or why a term is unobservable;
+* **rejected points**: the first ones in time order (time, sensor, file row, component,
+  value and residual in the file's own unit, reason), the rest counted (``edits.parquet``).
 
 Everything comes from the run's ``summary.json`` dictionary; angles are shown in mrad and
-latencies in ms. Written atomically.
+latencies in ms; times as UTC clock time when their calendar is known, else as seconds from
+the run's start (``rangeproc.timescale``). The run's warnings are in a box at the top. Written
+atomically.
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ from typing import Any
 
 from rangeproc.io.writers import atomic_path
 from rangeproc.report.common import display_unit
+from rangeproc.timescale import TimeScale, from_summary
 
 #: What each figure shows (by file name; residual figures by prefix).
 CAPTIONS = {
@@ -49,6 +56,9 @@ th { background: #f1f4f7; } td.num { text-align: right; font-variant-numeric: ta
 figure { margin: 8px 0 28px; } figure img { max-width: 100%; border: 1px solid #d8dde2; }
 figcaption { color: #5a6570; font-size: 13px; }
 nav a { margin-right: 12px; }
+div.warnings { background: #fff4d6; border: 1px solid #e0a800; border-left: 6px solid #e0a800;
+               padding: 8px 14px; margin: 12px 0 20px; } div.warnings ul { margin: 4px 0; }
+p.nowarn { color: #2e7d32; margin: 8px 0; }
 """
 
 
@@ -78,8 +88,15 @@ def html_table(head: Sequence[str], rows: Sequence[Sequence[str]], numeric: set[
     return "".join(out)
 
 
+def _when(t: float | None, scale: TimeScale) -> str:
+    """A range time as UTC clock time (calendar known) or seconds from the run's start."""
+    return "–" if t is None else esc(scale.clock(float(t)))
+
+
 def objects_table(summary: Mapping[str, Any]) -> str:
-    """The per-object table (``summary["targets"]`` and its association)."""
+    """The per-object table (``summary["targets"]`` and its association); start and end as
+    UTC clock time or seconds from the run's start (``rangeproc.timescale``)."""
+    scale = from_summary(summary)
     assoc = (summary.get("association") or {}).get("objects", {})
     rows = []
     for oid, t in summary.get("targets", {}).items():
@@ -90,12 +107,12 @@ def objects_table(summary: Mapping[str, Any]) -> str:
         a = assoc.get(oid, {})
         rows.append([
             esc(oid) + (" <small>(discovered)</small>" if a.get("discovered") else ""),
-            _num(t.get("t_start"), 10), _num(t.get("t_end"), 10),
+            _when(t.get("t_start"), scale), _when(t.get("t_end"), scale),
             _num(None if t.get("t_start") is None else t["t_end"] - t["t_start"], 5),
             esc(t.get("n_epochs", "–")), esc(len(gaps)), _num(longest, 3),
             _num(t.get("max_sigma_position_m"), 3), _num(q, 3),
             esc(t.get("divergence_resets", "–")), esc(len(a.get("segments", [])) or "–")])
-    return html_table(["object", "start (s)", "end (s)", "duration (s)", "epochs", "gaps",
+    return html_table(["object", "start", "end", "duration (s)", "epochs", "gaps",
                    "longest gap (s)", "max 1σ position (m)", "q median (m²/s⁵)",
                    "divergence resets", "segments"], rows, set(range(1, 11)))
 
@@ -113,10 +130,57 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
                            *(_calibration_cell(name, c)
                              for name, c in (s.get("calibration") or {}).items())])
         rows.append([esc(sid), esc(s.get("kind", "")), esc(s.get("n_read", s.get("n_rows", "–"))),
-                     esc(s.get("n_used", "–")), esc(s.get("n_rejected", "–")), esc(edited),
-                     noise or "–", cal or "–"])
-    return html_table(["sensor", "kind", "rows read", "used", "rejected (wild)", "edited",
-                   "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows, {2, 3, 4, 5})
+                     esc(s.get("n_used", "–")), _rejected_cell(s, edited),
+                     _down_weighted_cell(s), noise or "–", cal or "–"])
+    return html_table(["sensor", "kind", "rows read", "used", "rejected points",
+                       "down-weighted (expected if Gaussian)", "noise 1σ: a priori → estimated",
+                       "calibration (± 1σ)"], rows, {2, 3, 4, 5})
+
+
+def _rejected_cell(s: Mapping[str, Any], edited: int) -> str:
+    """Rejected points (not used at all) with their count per reason; a summary without
+    them: the gate's rows plus the edits before estimation."""
+    if "n_rejected_points" not in s:
+        return esc(int(s.get("n_rejected") or 0) + edited)
+    why = ", ".join(f"{esc(k)} {esc(v)}" for k, v in (s.get("n_rejected_by_reason") or {}).items())
+    return esc(s["n_rejected_points"]) + (f"<br><small>{why}</small>" if why else "")
+
+
+def _down_weighted_cell(s: Mapping[str, Any]) -> str:
+    """Components used with a weight below 2/3, and how many Gaussian noise of the estimated
+    sigma gives (``editing.audit``)."""
+    if "n_down_weighted" not in s:
+        return "–"
+    expected = s.get("n_down_weighted_expected")
+    why = ", ".join(f"{esc(k)} {esc(v)}"
+                    for k, v in (s.get("n_down_weighted_by_reason") or {}).items())
+    return (esc(s["n_down_weighted"]) + (f" ({_num(expected, 3)})" if expected is not None
+                                         else "") + (f"<br><small>{why}</small>" if why else ""))
+
+
+def rejected_table(summary: Mapping[str, Any]) -> str:
+    """The rejected points (``summary["rejected_points"]``, ``editing.audit``): time, sensor,
+    file row, component, value and residual in the file's unit, reason; 'and N more' when
+    the summary lists only the first ones."""
+    listed = summary.get("rejected_points") or {}
+    shown = listed.get("shown") or []
+    if not shown:
+        return "<p>No point was rejected.</p>"
+    scale = from_summary(summary)
+    rows = [[_when(p.get("time"), scale), esc(p.get("sensor", "")), esc(p.get("row", "")),
+             esc(p.get("component", "")), _value(p.get("value"), p.get("unit", ""), 10),
+             _value(p.get("residual"), p.get("unit", ""), 4, "+"), esc(p.get("reason", ""))]
+            for p in shown]
+    more = int(listed.get("n", len(shown))) - len(shown)
+    note = f"<p>… and {more:,} more in edits.parquet.</p>" if more > 0 else ""
+    return html_table(["time", "sensor", "row", "component", "value", "residual", "reason"],
+                      rows, {2, 4, 5}) + note
+
+
+def _value(v: float | None, unit: str, digits: int, sign: str = "") -> str:
+    """A value in the file's own unit ('11583.358 m'; ``sign`` "+": '+394.2 m'); '–' when
+    there is none."""
+    return "–" if v is None or v != v else esc(f"{v:{sign}.{digits}g} {unit}".strip())
 
 
 def _time_offset_cell(offset: Mapping[str, Any] | None) -> list[str]:
@@ -151,6 +215,25 @@ def figure_block(path: Path, caption: str | None = None) -> str:
             f"<figcaption>{esc(caption)}</figcaption></figure>")
 
 
+def warnings_box(summary: Mapping[str, Any]) -> str:
+    """The run's warnings (``summary["warnings"]``, one line each) in a box for the top of the
+    page; 'no warnings' when there are none."""
+    lines = [str(w) for w in summary.get("warnings") or []]
+    if not lines:
+        return '<p class="nowarn">no warnings</p>'
+    items = "".join(f"<li>{esc(w)}</li>" for w in lines)
+    return (f'<div class="warnings" id="warnings"><b>{len(lines)} warning'
+            f'{"s" * (len(lines) != 1)}</b><ul>{items}</ul></div>')
+
+
+def _times_line(summary: Mapping[str, Any]) -> str:
+    """How the page's times read: the run's start as UTC and raw, or raw with 'from start'."""
+    scale = from_summary(summary)
+    if scale.start != scale.start:                                  # NaN: no epochs
+        return ""
+    return f'<p class="meta">Times: {esc(scale.start_text())}</p>'
+
+
 def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -> str:
     """The whole page as a string."""
     cfg = summary.get("config", {})
@@ -164,8 +247,11 @@ def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">',
         f"<title>{esc(title)}</title><style>{STYLE}</style></head><body>",
         f"<h1>{esc(title)}</h1><p class=\"meta\">{meta}</p>",
+        _times_line(summary),
+        warnings_box(summary),
         "<h2>Objects</h2>", objects_table(summary),
         "<h2>Sensors</h2>", sensors_table(summary),
+        "<h2>Rejected points</h2>", rejected_table(summary),
         f"<h2>Figures</h2><nav>{nav}</nav>",
         *(figure_block(p) for p in figures),
         "</body></html>\n"])

@@ -19,7 +19,7 @@ from rangeproc.report.common import (
     n_sensors_running_max,
     new_figure,
     t0_note,
-    time_label,
+    time_axis,
 )
 from rangeproc.results import TrackEstimate
 
@@ -123,7 +123,7 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
     ax.set_yticklabels(labels, fontsize=8)
     ax.set_ylim(-0.6, max(nrow, 1) - 0.4)
     ax.set_xlim(lo - 0.01 * span, hi + 0.01 * span)
-    ax.set_xlabel(time_label(t0))
+    time_axis(ax, t0)
     ax.grid(axis="y", visible=False)
     if mappable is not None:
         cax = fig.add_axes((0.955, box[1], 0.011, box[3]))

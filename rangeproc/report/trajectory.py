@@ -11,20 +11,39 @@ from matplotlib.lines import Line2D
 
 from rangeproc.report.common import (
     CYCLE,
+    ClockFormatter,
+    ClockLocator,
     break_gaps,
+    day_seconds,
     log_axis,
     n_sensors_colormap,
     n_sensors_running_max,
     new_figure,
     stride_indices,
     t0_note,
-    time_label,
+    time_axis,
 )
 from rangeproc.results import TrackEstimate
 
 #: Most epochs per target drawn in a line (tracks are decimated by stride for drawing).
 MAX_TRACK_POINTS = 20_000
 _AXIS_STYLES = (("e", "-", "#1f77b4"), ("n", "--", "#ff7f0e"), ("u", ":", "#2ca02c"))
+#: Title and label of the altitude panel (rangeproc has no geoid model, so no MSL height).
+HEIGHT_TITLE = "height above the WGS-84 ellipsoid"
+HEIGHT_LABEL = "ellipsoidal height [m]"
+
+
+def height_series(track: TrackEstimate, idx: np.ndarray | slice = slice(None)
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(time (K,) s, height (K,) m above the WGS-84 ellipsoid) of ``track``'s epochs ``idx``,
+    with NaN rows across data gaps (``break_gaps``): the altitude panel's series. The height is
+    the track's geodetic height, as in ``fused.parquet``, not the range ENU frame's up (which
+    falls away from a constant-height flight with the Earth's curvature, ~16 m at 14 km)."""
+    t = np.asarray(track.time, dtype=float)[idx]
+    h = np.asarray(track.height, dtype=float)[idx]
+    tg, hg = break_gaps(t, h)
+    return tg, hg
+
 
 
 def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndarray] | None,
@@ -53,11 +72,12 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
         t = np.asarray(tr.time, dtype=float)[idx]
         x = np.asarray(tr.x, dtype=float)[idx]
         _draw_plan(fig, ax_map, tr, idx, color, single, t0)
-        tg, u, v = break_gaps(t, x[:, 2], x[:, 3:6])
+        tg, v = break_gaps(t, x[:, 3:6])
         spd = np.linalg.norm(v, axis=1)
         marker = "o" if t.size == 1 else None
         lab = tr.target_id
-        ax_up.plot(tg - t0, u / 1e3, color=color, lw=1.2, marker=marker, label=lab)
+        th, height = height_series(tr, idx)
+        ax_up.plot(th - t0, height, color=color, lw=1.2, marker=marker, label=lab)
         ax_spd.plot(tg - t0, spd, color=color, lw=1.2, marker=marker, label=lab)
         with np.errstate(invalid="ignore"):
             sig = np.sqrt(np.diagonal(np.asarray(tr.P, dtype=float)[idx], axis1=1, axis2=2)[:, :3])
@@ -69,13 +89,13 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
                         label=f"σ_{name}" if single else f"{tr.target_id} σ_{name}")
 
     _finish_map(ax_map, tracks, sites)
-    ax_up.set_ylabel("up (range ENU) [km]")
-    ax_up.set_title("altitude above the range origin plane")
+    ax_up.set_ylabel(HEIGHT_LABEL)
+    ax_up.set_title(HEIGHT_TITLE)
     ax_spd.set_ylabel("speed |v| [m/s]")
     ax_spd.set_title("speed")
     ax_sig.set_ylabel("1-σ position [m]")
     ax_sig.set_title("1-σ position uncertainty per axis (e, n, u)", loc="left")
-    ax_sig.set_xlabel(time_label(t0))
+    time_axis(ax_sig, t0)
     if any(np.isfinite(line.get_ydata()).any() and (np.asarray(line.get_ydata()) > 0).any()
            for line in ax_sig.get_lines()):
         log_axis(ax_sig)
@@ -148,19 +168,29 @@ def _not_gap(t: np.ndarray, factor: float = 3.0) -> np.ndarray:
 
 
 def _time_marks(ax: Axes, t: np.ndarray, e: np.ndarray, n: np.ndarray, t0: float) -> None:
-    """Small labelled ticks along the track at round times (s since t0) for map/time lookup."""
+    """Small labelled ticks along the track at round times for map/time lookup: UTC clock
+    times (hh:mm:ss) when ``t0`` carries a known calendar, else seconds since t0."""
     span = float(t[-1] - t[0])
     if not span > 0:
         return
-    step = _nice_step(span / 6.0)
-    marks = np.arange(np.ceil((t[0] - t0) / step) * step, t[-1] - t0, step)
-    marks = marks[marks > t[0] - t0 + 0.3 * step]
+    scale = getattr(t0, "scale", None)
+    if scale is not None:
+        base = scale.utc(t0)
+        marks = ClockLocator(day_seconds(base), nbins=6).tick_values(t[0] - t0, t[-1] - t0)
+        step = float(np.diff(marks).min()) if marks.size > 1 else span
+        labels = ClockFormatter(base).format_ticks(marks)
+    else:
+        step = _nice_step(span / 6.0)
+        marks = np.arange(np.ceil((t[0] - t0) / step) * step, t[-1] - t0, step)
+        labels = [f"{m:g} s" for m in marks]
+    keep = (marks > t[0] - t0 + 0.3 * step) & (marks < t[-1] - t0)
+    marks, labels = marks[keep], [lab for lab, k in zip(labels, keep) if k]
     if marks.size == 0:
         return
     j = np.clip(np.searchsorted(t - t0, marks), 0, t.size - 1)
     ax.plot(e[j], n[j], "o", ms=3.5, color="k", zorder=4)
-    for jj, m in zip(j, marks):
-        ax.annotate(f"{m:g} s", (e[jj], n[jj]), xytext=(4, -10), textcoords="offset points",
+    for jj, label in zip(j, labels):
+        ax.annotate(label, (e[jj], n[jj]), xytext=(4, -10), textcoords="offset points",
                     fontsize=7, color="0.2")
 
 

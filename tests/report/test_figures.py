@@ -125,11 +125,11 @@ def test_exception_midway_leaves_no_temp_file(tmp_path: Path, scenario,
     calls = {"n": 0}
     real = figmod.plot_residuals
 
-    def fail_second(view, t0):  # type: ignore[no-untyped-def]
+    def fail_second(view, t0, *rest):  # type: ignore[no-untyped-def]
         calls["n"] += 1
         if calls["n"] == 2:
             raise RuntimeError("boom")
-        return real(view, t0)
+        return real(view, t0, *rest)
 
     monkeypatch.setattr(figmod, "plot_residuals", fail_second)
     with pytest.raises(RuntimeError, match="boom"):

@@ -176,7 +176,7 @@ def test_object_timeline_lanes_swap_relays_and_bridged(tmp_path: Path) -> None:
         assert "1 swap," in texts and "3 relays" in texts
         assert "clutter 2,000" in texts and "angle-only plot 200" in texts
         assert "no object fits 25" in texts
-        assert ax.get_xlabel().startswith("time since")
+        assert ax.get_xlabel().startswith("time from start")
         assert_good_png(save_figure(fig, tmp_path / "objects.png"))
 
 
