@@ -20,7 +20,6 @@ from rangeproc.config_checks import (ValueChecks, a_kind, join_names, show_value
                                      type_name)
 from rangeproc.errors import DataError
 from rangeproc.interchange import FORMATS
-from rangeproc.interchange.trajectories import parse_epoch
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -47,6 +46,7 @@ from rangeproc.settings import (  # re-exported: the config's public types
     StationSettings as StationSettings,
     TargetSettings as TargetSettings,
 )
+from rangeproc.timescale import parse_epoch
 
 
 _TOP_KEYS = ("range", "output", "targets", "sensors", "processing")

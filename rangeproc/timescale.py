@@ -26,8 +26,30 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from rangeproc.interchange.trajectories import UNIX_EPOCH, parse_epoch
+from rangeproc.errors import DataError
+
+#: The epoch that makes ``time`` Unix seconds (contract section 2's ISO conversion).
+UNIX_EPOCH = "1970-01-01T00:00:00Z"
+#: Calendar years a viewer can show (CZML and KML use ISO 8601 with four-digit years).
+YEAR_RANGE = (1900, 2200)
+
+def parse_epoch(text: str, what: str = "--epoch") -> np.datetime64:
+    """The UTC instant of time 0, from an ISO-8601 string with an explicit UTC offset or ``Z``.
+
+    Raises DataError naming ``what`` for a string that is not such an instant."""
+    try:
+        stamp = pd.Timestamp(text)
+    except (ValueError, TypeError) as exc:
+        raise DataError(f"{what}: '{text}' is not an ISO-8601 time ({exc})") from None
+    if stamp.tzinfo is None:
+        raise DataError(f"{what}: '{text}' has no UTC offset (add Z or +hh:mm)")
+    if not YEAR_RANGE[0] <= stamp.tz_convert("UTC").year < YEAR_RANGE[1]:
+        raise DataError(f"{what}: '{text}' is outside the years {YEAR_RANGE[0]}-{YEAR_RANGE[1]}")
+    return np.datetime64(stamp.tz_convert("UTC").tz_localize(None).to_datetime64(), "ns")
+
+
 
 #: Times (s) read as Unix seconds when every time of a run lies in [lo, hi): 1973-03-03 to
 #: 2100-01-01 UTC.

@@ -8,7 +8,8 @@ to the stamps, and may be given as an ISO date or instant).
 
 Scales are recognised from the stamps' values alone (:func:`clock_scale`):
 
-* Unix: 1e8 s (1973-03-03) to 4.1e9 s (2100); shown with its UTC date and time.
+* Unix: 1e8 s (1973-03-03) to 2100-01-01 (``rangeproc.timescale.UNIX_RANGE``, the rule the
+  outputs' calendar follows); shown with its UTC date and time.
 * seconds of day: 0 to 90,000 s (a day plus an hour for flights that cross midnight).
 * GPS seconds of week: 0 to 604,800 s, beyond a day.
 
@@ -22,7 +23,8 @@ import math
 
 import numpy as np
 
-UNIX_RANGE = (1.0e8, 4.1e9)           #: s, plausible Unix times (1973 to 2100)
+from rangeproc.timescale import UNIX_RANGE   # s, the Unix scale (1973 to 2100)
+
 DAY = 86400.0                         #: s
 WEEK = 7 * DAY                        #: s
 SOD_MAX = DAY + 3600.0                #: s, seconds of day of a flight crossing midnight
@@ -34,7 +36,7 @@ def clock_scale(t: np.ndarray) -> str:
     """"unix", "day" (seconds of day), "week" (GPS seconds of week) or "unknown" for stamps
     ``t`` (s), judged from their first and last values."""
     lo, hi = float(np.min(t)), float(np.max(t))
-    if UNIX_RANGE[0] <= lo and hi <= UNIX_RANGE[1]:
+    if UNIX_RANGE[0] <= lo and hi < UNIX_RANGE[1]:
         return "unix"
     if 0.0 <= lo and hi <= SOD_MAX:
         return "day"

@@ -21,8 +21,8 @@ import numpy as np
 import pandas as pd
 
 from rangeproc.errors import DataError
-from rangeproc.interchange.trajectories import (UNIX_EPOCH, object_trajectories, parse_epoch,
-                                                read_fused, to_utc)
+from rangeproc.interchange.trajectories import object_trajectories, read_fused, to_utc
+from rangeproc.timescale import BASIS_EPOCH, UNIX_EPOCH, on_unix_scale, parse_epoch
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +81,6 @@ def calendar_epoch(time: np.ndarray, out_dir: Path) -> np.datetime64:
     ``OUT_DIR/summary.json`` recorded (``time_scale``), else the Unix epoch. When the times
     (N,) s are not on the Unix scale (``rangeproc.timescale``) the Unix epoch is still used,
     with one warning line saying so and naming ``--epoch``."""
-    from rangeproc.timescale import BASIS_EPOCH, on_unix_scale
 
     try:
         recorded = json.loads((Path(out_dir) / "summary.json").read_text(encoding="utf-8"))

@@ -15,11 +15,8 @@ import numpy as np
 import pandas as pd
 
 from rangeproc.errors import DataError
+from rangeproc.timescale import YEAR_RANGE
 
-#: The epoch that makes ``time`` Unix seconds (contract section 2's ISO conversion).
-UNIX_EPOCH = "1970-01-01T00:00:00Z"
-#: Calendar years a viewer can show (CZML and KML use ISO 8601 with four-digit years).
-YEAR_RANGE = (1900, 2200)
 #: Columns every export needs from ``fused.parquet`` (contract section 4).
 NEEDED = ("target_id", "time", "lat", "lon", "height", "sigma_e", "sigma_n", "sigma_u")
 
@@ -45,21 +42,6 @@ class ObjectTrajectory:
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
-
-
-def parse_epoch(text: str, what: str = "--epoch") -> np.datetime64:
-    """The UTC instant of time 0, from an ISO-8601 string with an explicit UTC offset or ``Z``.
-
-    Raises DataError naming ``what`` for a string that is not such an instant."""
-    try:
-        stamp = pd.Timestamp(text)
-    except (ValueError, TypeError) as exc:
-        raise DataError(f"{what}: '{text}' is not an ISO-8601 time ({exc})") from None
-    if stamp.tzinfo is None:
-        raise DataError(f"{what}: '{text}' has no UTC offset (add Z or +hh:mm)")
-    if not YEAR_RANGE[0] <= stamp.tz_convert("UTC").year < YEAR_RANGE[1]:
-        raise DataError(f"{what}: '{text}' is outside the years {YEAR_RANGE[0]}-{YEAR_RANGE[1]}")
-    return np.datetime64(stamp.tz_convert("UTC").tz_localize(None).to_datetime64(), "ns")
 
 
 def to_utc(time: np.ndarray, epoch: np.datetime64, source: str) -> np.ndarray:

@@ -22,7 +22,8 @@ from click.testing import CliRunner
 from rangeproc.cli import main
 from rangeproc.errors import DataError
 from rangeproc.interchange import export_run
-from rangeproc.interchange.trajectories import (object_trajectories, parse_epoch, read_fused,
+from rangeproc.timescale import parse_epoch
+from rangeproc.interchange.trajectories import (object_trajectories, read_fused,
                                                 to_utc)
 
 with warnings.catch_warnings():          # fastkml warns that lxml (pretty printing) is missing
