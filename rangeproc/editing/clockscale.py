@@ -106,3 +106,32 @@ def scale_hint(t: np.ndarray, ref: np.ndarray) -> str:
         return ""
     return (f"its stamps are {describe_scale(t)}, the others' {describe_scale(ref)}: "
             f"{found[1]} would align them")
+
+
+#: Sub-second units a time column is sometimes written in, with their seconds.
+SUBUNITS = (("milliseconds", 1e-3), ("microseconds", 1e-6), ("nanoseconds", 1e-9))
+
+
+def subunit_hint(raw: np.ndarray) -> str:
+    """': they look like Unix milliseconds (UTC ...): time must be in seconds' when stamps
+    ``raw`` (s as read, before any offset) are Unix time in a sub-second unit, else ''."""
+    lo, hi = float(np.min(raw)), float(np.max(raw))
+    for name, factor in SUBUNITS:
+        if UNIX_RANGE[0] <= lo * factor and hi * factor < UNIX_RANGE[1]:
+            start = f"{utc(lo * factor):%Y-%m-%d %H:%M:%S}"
+            return (f": they look like Unix {name} (from UTC {start}); the time column must be "
+                    "in seconds")
+    return ""
+
+
+def sign_hint(t: np.ndarray, offset: float, ref: np.ndarray, margin: float) -> str:
+    """A clause saying the sensor's ``time_offset`` has the wrong sign when stamps ``t``
+    (offset applied) would come within ``margin`` (s) of ``ref`` with the opposite sign, else
+    ''."""
+    if offset == 0.0:
+        return ""
+    flipped = t - 2.0 * offset
+    if float(np.min(flipped)) - margin <= float(np.max(ref)) and \
+            float(np.max(flipped)) + margin >= float(np.min(ref)):
+        return f"time_offset = {-offset!r} (the other sign) would align them"
+    return ""

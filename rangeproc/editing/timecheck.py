@@ -30,7 +30,7 @@ import numpy as np
 
 from rangeproc.config import MAX_ABS_TIME, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
-from rangeproc.editing.clockscale import scale_hint
+from rangeproc.editing.clockscale import scale_hint, sign_hint, subunit_hint
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog, select_rows
 
@@ -112,7 +112,8 @@ def edit_time(log: SensorLog, settings: SensorSettings, record: EditRecord, *,
     if far.all():
         raise DataError(f"{settings.file.name}: row {int(log.row[0])}, column 'time': "
                         f"{log.time[0]:g} s (time_offset {settings.time_offset:g} s applied) "
-                        f"and every other time stamp lie beyond +-{MAX_ABS_TIME:g} s")
+                        f"and every other time stamp lie beyond +-{MAX_ABS_TIME:g} s"
+                        f"{subunit_hint(log.time - settings.time_offset)}")
     log = _edit(log, far, record)
     series = _series(log)
     if series is not False:
@@ -163,7 +164,8 @@ def check_overlap(logs: Mapping[str, SensorLog], sensors: Sequence[SensorSetting
     _, sid, ref = max(failures, key=lambda f: f[0])
     s = by_id[sid]
     what = "the sensors on its platform" if s.kind == "ins" else "the other sensors"
-    hint = scale_hint(logs[sid].time, ref) or "likely a wrong time scale or time_offset"
+    hint = (scale_hint(logs[sid].time, ref) or sign_hint(logs[sid].time, s.time_offset, ref, margin)
+            or "likely a wrong time scale or time_offset")
     raise DataError(
         f"{s.file.name}: sensor {sid} time span {_span(logs[sid].time)} does not come within "
         f"{margin:g} s of {what} ({_span(ref)}): {hint} "

@@ -83,6 +83,21 @@ def _range_text(v: np.ndarray) -> str:
     return f"[{v.min():.4g}, {v.max():.4g}]"
 
 
+def _check_swapped(found: dict[str, tuple[np.ndarray, bool]], unit: str, name: str) -> None:
+    """DataError when the elevation column is impossible in ``unit`` but would fit as the
+    azimuth and the azimuth column as the elevation: the two columns look swapped."""
+    if "azimuth" not in found or "elevation" not in found:
+        return
+    az, el = found["azimuth"][0], found["elevation"][0]
+    if not (az.size and el.size) or np.mean(~_fits(el, unit, False)) <= IMPOSSIBLE_FRACTION:
+        return
+    if _fits(az, unit, False).all() and _fits(el, unit, True).all():
+        raise DataError(
+            f"{name}: columns 'azimuth' and 'elevation' look swapped: the elevations "
+            f"{_range_text(el)} cannot be elevations in {unit}, but fit azimuths, and the "
+            f"azimuths {_range_text(az)} fit elevations")
+
+
 def angle_unit_check(log: SensorLog, s: SensorSettings) -> UnitSuspicion | None:
     """Check the angle columns of one sensor's log against its ``angle_unit``.
 
@@ -99,6 +114,7 @@ def angle_unit_check(log: SensorLog, s: SensorSettings) -> UnitSuspicion | None:
     columns = [(name, circular) for circular, names in zip((True, False), groups)
                for name in names]
     found = {name: (_file_values(log, name, unit), circular) for name, circular in columns}
+    _check_swapped(found, unit, s.file.name)
     for name, (v, circular) in found.items():
         if v.size and np.mean(~_fits(v, unit, circular)) > IMPOSSIBLE_FRACTION:
             fit = fitting_units(v, circular)

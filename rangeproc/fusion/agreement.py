@@ -102,16 +102,19 @@ def far_line(far: FarSensor, file_name: str) -> str:
             f"{far.distance_m / 1e3:.3g} km (median over {far.n_epochs} epochs) from every "
             f"other sensor's view of the objects in the air at the same times "
             f"({', '.join(far.others)}) and form {_objects(far.object_ids)} that only it sees: "
-            "if it watches the same object, check its site, angle_unit and time_offset")
+            "if it watches the same object, check its site, units (angle_unit, metres) and "
+            "time_offset")
 
 
 def pair_line(a: FarSensor, b: FarSensor, files: dict[str, str]) -> str:
     """The one line for two sensors that only see each other's objects far away (either may
     be the wrong one)."""
+    verb = "sits" if len(a.object_ids) == 1 else "sit"
     return (f"{files[a.sensor_id]} and {files[b.sensor_id]} disagree: sensor {a.sensor_id}'s "
-            f"{_objects(a.object_ids)} sit {a.distance_m / 1e3:.3g} km (median over "
+            f"{_objects(a.object_ids)} {verb} {a.distance_m / 1e3:.3g} km (median over "
             f"{a.n_epochs} epochs) from sensor {b.sensor_id}'s {_objects(b.object_ids)}: if "
-            "they watch the same object, check their sites, angle_unit and time_offset")
+            "they watch the same object, check their sites, units (angle_unit, metres) and "
+            "time_offset")
 
 
 def _objects(ids: Sequence[str]) -> str:

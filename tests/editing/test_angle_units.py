@@ -85,6 +85,19 @@ def test_a_radar_site_5_km_off_disagrees_with_the_gps(tmp_path):
     warn = [ln for ln in lines if "disagree" in ln]
     assert len(warn) == 1, lines
     assert warn[0].startswith("rangeproc: WARNING: R1.csv and G1.csv disagree: sensor R1's ")
-    assert "check their sites, angle_unit and time_offset" in warn[0]
+    assert "check their sites, units (angle_unit, metres) and time_offset" in warn[0]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert any("disagree" in w for w in summary["warnings"])
+
+
+def test_swapped_azimuth_and_elevation_columns_are_named(tmp_path):
+    flight = make_flight(tmp_path)
+    path = tmp_path / "R1.csv"
+    lines = path.read_text().splitlines()
+    assert lines[0] == "time,range,azimuth,elevation"
+    path.write_text("\n".join(["time,range,elevation,azimuth", *lines[1:]]) + "\n")
+    result, err = _run(flight)
+    assert result.exit_code == 2, describe(result)
+    assert len(err) == 1
+    assert err[0].startswith("rangeproc: error: R1.csv: columns 'azimuth' and 'elevation' look "
+                             "swapped: the elevations [")

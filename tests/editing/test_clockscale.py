@@ -50,3 +50,38 @@ def test_a_radar_on_another_scale_names_both_and_the_offset(tmp_path, scale, nee
     assert len(lines) == 1 and lines[0].startswith("rangeproc: error: R1.csv: sensor R1")
     assert needle in lines[0]
     assert not (flight.folder / "out").exists()
+
+
+def _spoil(flight, column_fn=None, config=None):
+    if column_fn is not None:
+        lines = (flight.folder / "R1.csv").read_text().splitlines()
+        rows = [ln.split(",") for ln in lines[1:]]
+        for r in rows:
+            column_fn(r)
+        (flight.folder / "R1.csv").write_text("\n".join([lines[0]] + [",".join(r) for r in rows]))
+    if config is not None:
+        flight.config.write_text(flight.config.read_text().replace(*config))
+
+
+def test_unix_milliseconds_are_named(tmp_path):
+    flight = make_flight(tmp_path, scale="unix")
+
+    def to_ms(r):
+        r[0] = f"{float(r[0]) * 1000:.0f}"
+    _spoil(flight, to_ms)
+    result = invoke(["run", "--quiet", flight.config])
+    assert result.exit_code == 2, describe(result)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].endswith("they look like Unix milliseconds (from UTC 2026-05-11 14:00:00); "
+                             "the time column must be in seconds")
+
+
+def test_an_offset_with_the_wrong_sign_is_named(tmp_path):
+    flight = make_flight(tmp_path)                  # seconds of day + time_offset
+    _spoil(flight, config=("time_offset = 1778457600.0", "time_offset = -1778457600.0"))
+    result = invoke(["run", "--quiet", flight.config])
+    assert result.exit_code == 2, describe(result)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert "time_offset = 1778457600.0 (the other sign) would align them" in lines[0]
