@@ -24,7 +24,7 @@ from rangeproc.editing.audit import edit_summary, rejected_examples
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.editing.table import edit_table
-from rangeproc.editing.units import UnitSuspicion, angle_unit_checks
+from rangeproc.editing.units import UnitSuspicion, angle_unit_checks, stated_sigma_line
 from rangeproc.errors import ConfigError, DataError
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm import MODEL_NAMES
@@ -383,6 +383,9 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                     sen, i, specs[i] if specs else None,
                     [c for _, result in fused for c in result.calibration])
     report_disagreement(cfg, tracks, unit_suspicions)
+    for sen in cfg.sensors:
+        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {})):
+            log.warning("%s", line)
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")

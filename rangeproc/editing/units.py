@@ -153,3 +153,31 @@ def angle_unit_checks(sensors: Sequence[SensorSettings], logs: Mapping[str, Sens
         if (suspicion := angle_unit_check(logs[s.id], s)) is not None:
             found[s.id] = suspicion
     return found
+
+
+#: A stated sigma this many times larger or smaller than the noise the data show is reported:
+#: beyond any conservative margin, the size of a unit mistake (a sigma in degrees for a
+#: radian file is 57x, in mrad 1000x).
+SIGMA_RATIO = 10.0
+
+
+def stated_sigma_line(s: SensorSettings, noise: Mapping[str, Mapping]) -> str | None:
+    """One line when a stated a-priori sigma of sensor ``s`` is more than
+    :data:`SIGMA_RATIO` times larger or smaller than the noise estimated from its residuals
+    (``noise``: ``summary.json``'s ``sensors.<id>.noise``, SI), shown in the sensor's units;
+    None when every stated sigma is plausible."""
+    off = []
+    for name, n in noise.items():
+        stated, found = n.get("apriori"), n.get("estimated")
+        if not stated or not found or not np.isfinite(found) or found <= 0.0:
+            continue
+        ratio = stated / found
+        if max(ratio, 1.0 / ratio) > SIGMA_RATIO:
+            scale, unit = ((1.0 / ANGLE_TO_RADIANS[s.angle_unit], s.angle_unit)
+                           if n.get("unit") == "rad" else (1.0, n.get("unit", "")))
+            off.append(f"{name} {stated * scale:.3g} {unit} is {ratio:.3g}x the "
+                       f"{found * scale:.3g} {unit} its residuals show")
+    if not off:
+        return None
+    return (f"{s.file.name}: stated sigma {'; '.join(off)}: sigmas are 1-sigma in the "
+            "sensor's units (angle_unit for angles, m, m/s)")

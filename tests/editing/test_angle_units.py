@@ -101,3 +101,17 @@ def test_swapped_azimuth_and_elevation_columns_are_named(tmp_path):
     assert len(err) == 1
     assert err[0].startswith("rangeproc: error: R1.csv: columns 'azimuth' and 'elevation' look "
                              "swapped: the elevations [")
+
+
+def test_a_sigma_stated_in_the_wrong_unit_is_named(tmp_path):
+    flight = make_flight(tmp_path)                          # noise 0.01 deg
+    text = flight.config.read_text()
+    flight.config.write_text(text.replace("azimuth = 0.01, elevation = 0.01",
+                                          "azimuth = 0.57, elevation = 0.01"))
+    result, lines = _run(flight)
+    assert result.exit_code == 0, describe(result)
+    warn = [ln for ln in lines if "stated sigma" in ln]
+    assert len(warn) == 1, lines
+    assert re.match(r"rangeproc: WARNING: R1.csv: stated sigma azimuth 0.57 deg is [0-9.]+x the "
+                    r"0.0[0-9]+ deg its residuals show: sigmas are 1-sigma", warn[0]), warn[0]
+    assert "elevation" not in warn[0]
