@@ -2,7 +2,9 @@
 
 Each command parses options, calls one library function and turns library errors into exit
 codes: 2 for unusable input or config (one line on stderr naming the file and the row, column
-or key), 3 for a numerical failure, 1 for anything unexpected.
+or key), 3 for a numerical failure, 5 for an output that cannot be written (a full disk, a
+read-only or not writable folder: one line naming the path and the cause), 1 for anything
+unexpected.
 """
 from __future__ import annotations
 
@@ -17,10 +19,12 @@ from typing import Any, NoReturn
 import click
 
 from rangeproc import __version__
-from rangeproc.errors import ConfigError, DataError, NumericalError, RangeprocError
+from rangeproc.errors import (ConfigError, DataError, NumericalError, OutputError,
+                              RangeprocError, write_failure)
 
 EXIT_INPUT = 2
 EXIT_NUMERICAL = 3
+EXIT_OUTPUT = 5          # an output could not be written (disk full, read-only, not permitted)
 EXIT_INTERNAL = 1
 
 
@@ -77,11 +81,16 @@ def library_errors(func: Callable[..., Any]) -> Callable[..., Any]:
             _fail(str(exc), EXIT_INPUT)
         except NumericalError as exc:
             _fail(str(exc), EXIT_NUMERICAL)
+        except OutputError as exc:
+            _fail(str(exc), EXIT_OUTPUT)
         except RangeprocError as exc:
             _fail(str(exc), EXIT_INTERNAL)
         except KeyboardInterrupt:
             _fail("interrupted", 130)
         except Exception as exc:
+            failure = write_failure(exc, getattr(exc, "filename", None) or "the outputs")
+            if failure is not None:        # an OS failure to write that no writer named
+                _fail(str(failure), EXIT_OUTPUT)
             if logging.getLogger().isEnabledFor(logging.DEBUG):
                 raise
             _fail(f"internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
@@ -196,7 +205,9 @@ def run_cmd(config: Path, quiet: bool) -> None:
     Writes fused.parquet, summary.json and report/*.png into the config's [output].dir, then
     (unless --quiet) a headline: each object's epochs, span and 1-sigma position uncertainty,
     the number of warnings and the report page's path.
-    Exit status 0 on success, 2 for unusable input or config, 3 for a numerical failure.
+    Exit status 0 on success, 2 for unusable input or config, 3 for a numerical failure, 5
+    when an output cannot be written (one line naming the path and the cause: disk full,
+    folder read-only or not permitted; no partial output is left).
     """
     from rangeproc.pipeline import run
     from rangeproc.report.headline import headline
@@ -220,7 +231,7 @@ def run_cmd(config: Path, quiet: bool) -> None:
               help="Multiplies every sensor's sample rate (0 < x <= 20), e.g. for benchmarks: "
                    "an hour at 1.0 is ~0.64 M rows.")
 @click.option("--faults", default="none", show_default=True,
-              help="Systematic sensor faults: a preset ('none'; 'issue8': R1 range +15 m, "
+              help="Systematic sensor faults: a preset ('none'; 'registration': R1 range +15 m, "
                    "azimuth/elevation +0.5 mrad, TH1 azimuth +20\", elevation -20\", S1 "
                    "mount_yaw +0.3 deg, latency +0.040 s), or a JSON object / JSON file "
                    "{sensor_id: {name: value}} with the data contract's names, signs and SI "
@@ -229,7 +240,7 @@ def run_cmd(config: Path, quiet: bool) -> None:
               help="Several objects instead of one: crossing, formation, lock-jump, "
                    "operator-switch, surveillance, phased-array (plots not in azimuth order: "
                    "each object revisited every 2 s), merged-feed (one plot file of two "
-                   "rotating radars at different sites), mixed or scale (issue 9's "
+                   "rotating radars at different sites), mixed or scale (the several-objects "
                    "benchmark: 10 objects, SR1, tracking radars R1-R3, GPS on four; e.g. "
                    "--duration 1800). "
                    "Objects with GPS are declared "
@@ -342,13 +353,19 @@ EXIT_SORTIES_FAILED = 4
 @library_errors
 def campaign_cmd(campaign: Path, scheduler: str | None, workers: int | None, force: bool,
                  quiet: bool) -> None:
-    """Run every sortie of CAMPAIGN (a TOML file listing sortie configs, or a folder of
-    configs) as `rangeproc run` would, in parallel on a Dask cluster.
+    """Run every sortie of CAMPAIGN as `rangeproc run` would, in parallel on a Dask cluster.
+
+    CAMPAIGN is a TOML file listing sortie configs ([output] dir = "records", then
+    [[sorties]] tables with config = "flights/f101.toml" and an optional id), or a folder:
+    every *.toml in it is a sortie (id: the file stem), and so is every sub-folder holding a
+    config.toml (id: the sub-folder's name); the folder's records go to FOLDER/campaign.
+    Each sortie writes its outputs where its config's [output].dir says.
 
     A sortie that fails is recorded with its one-line reason and the others go on; a rerun
     skips sorties whose outputs exist and match their config and input hashes. Writes
     campaign.json into the campaign's output folder. Exit status 0 when every sortie is
-    done, 4 when some failed, 2 for an unusable campaign file.
+    done, 4 when some failed, 2 for an unusable campaign file, 5 when the campaign's
+    records cannot be written (disk full, folder read-only or not permitted).
     """
     from rangeproc.campaign import load_campaign, run_campaign
 
@@ -380,7 +397,7 @@ class ExportCommand(click.Command):
             return super().parse_args(ctx, args)
         except click.UsageError as exc:
             if "extra argument" in exc.message and any(
-                    a.lower() in ("kml", "czml", "csv") for a in given):
+                    a.lower() in ("kml", "czml", "csv", "acmi", "acmi-zip") for a in given):
                 exc.message += (" (several formats: --format kml --format czml, or "
                                 "--format kml,czml)")
             raise
@@ -388,34 +405,35 @@ class ExportCommand(click.Command):
 
 @main.command("export", cls=ExportCommand)
 @click.argument("out_dir", type=click.Path(path_type=Path))
-@click.option("--format", "formats", multiple=True, metavar="kml|czml|csv",
-              help="Format to write (repeat or comma-separate for several; default: all "
-                   "three).")
+@click.option("--format", "formats", multiple=True, metavar="kml|czml|csv|acmi|acmi-zip",
+              help="Format to write (repeat or comma-separate for several; default: kml, "
+                   "czml, csv and acmi). acmi-zip: the ACMI text zipped, fused.zip.acmi.")
 @click.option("--epoch", default=None, metavar="ISO",
               help="UTC instant of time 0 on the range's time scale (ISO 8601 with Z or an "
                    "offset, e.g. 2026-05-11T00:00:00Z for seconds of day). Default: the run's "
                    "[output] epoch, else the times are read as Unix seconds (with a warning "
                    "when they are not: they then fall on 1970-01-01).")
 @click.option("--interval", type=float, default=0.0, show_default=True,
-              help="KML and CZML: at most one epoch per this many seconds per object "
+              help="KML, CZML and ACMI: at most one epoch per this many seconds per object "
                    "(0: every epoch).")
 @quiet_option
 @debug_option
 @library_errors
 def export_cmd(out_dir: Path, formats: tuple[str, ...], epoch: str | None,
                interval: float, quiet: bool) -> None:
-    """Write OUT_DIR/fused.parquet as fused.kml (Google Earth), fused.czml (Cesium) and
-    fused.csv (spreadsheets) beside it.
+    """Write OUT_DIR/fused.parquet as fused.kml (Google Earth), fused.czml (Cesium),
+    fused.csv (spreadsheets) and fused.acmi (Tacview; zipped: fused.zip.acmi) beside it.
 
     KML: a time-stamped track per object with its 1-sigma uncertainty per epoch. CZML:
     time-tagged positions per object with a 3-sigma uncertainty ellipsoid. CSV: the fused
-    table with a UTC column. Exit status 2 for a missing or unreadable fused.parquet or a
-    bad option.
+    table with a UTC column. ACMI: each object's time-tagged position and the sensors' sites
+    (from the config the run's summary.json names). Exit status 2 for a missing or unreadable
+    fused.parquet or a bad option.
     """
-    from rangeproc.interchange import FORMATS, export_run
+    from rangeproc.interchange import DEFAULT_FORMATS, export_run
 
     chosen = [f.strip().lower() for spec in formats for f in spec.split(",") if f.strip()]
-    written = export_run(out_dir, chosen or FORMATS, epoch=epoch, interval_s=interval)
+    written = export_run(out_dir, chosen or DEFAULT_FORMATS, epoch=epoch, interval_s=interval)
     if not quiet:
         click.echo(f"wrote {', '.join(str(p) for p in written)}")
 

@@ -2,18 +2,23 @@
 
 :class:`ValueChecks` holds the primitive checks (a table with known keys, a required key, a
 finite number, a bounded one, a probability, a boolean, a non-empty string, an array, unique
-ids); ``rangeproc.config`` builds the config's sections on them. Messages name the config file
-and the dotted key, e.g. ``flight.toml: sensors[2].sigma.range: must be > 0, got -1``.
+ids), and :meth:`ValueChecks.declared`, which checks a value as its settings field's
+declaration says (``rangeproc.keys``); ``rangeproc.config`` builds the config's sections on them.
+Messages name the config file and the dotted key, e.g.
+``flight.toml: sensors[2].sigma.range: must be > 0, got -1``.
 """
 from __future__ import annotations
 
 import datetime as dt
 import math
 import re
+import typing
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 from rangeproc.errors import ConfigError
+from rangeproc.keys import Key, optional_of
 
 
 def toml_syntax_error(name: str, exc: Exception) -> ConfigError:
@@ -131,6 +136,54 @@ class ValueChecks:
             raise self.error(key, f"a time of day ({x.isoformat()}) is not an instant: give "
                                   "seconds or a date or instant")
         return self.bounded(x, key, -bound, bound, "s")
+
+    def integer(self, x: object, key: str, bounds: tuple[float, float] | None = None) -> int:
+        """An integer (not a boolean), in ``[lo, hi]`` of ``bounds`` when given."""
+        if not isinstance(x, int) or isinstance(x, bool):
+            raise self.error(key, f"expected an integer, got {type_name(x)} ({show_value(x)})")
+        if bounds is not None and not bounds[0] <= x <= bounds[1]:
+            raise self.error(key, f"must be in [{bounds[0]:g}, {bounds[1]:g}], got {x}")
+        return x
+
+    def choice(self, x: object, key: str, allowed: Sequence[str], what: str) -> str:
+        """A non-empty string, one of ``allowed`` when that is not empty."""
+        s = self.string(x, key)
+        if allowed and s not in allowed:
+            raise self.error(key, f"unknown {what} {s!r} (expected one of: "
+                                  f"{join_names(allowed)})")
+        return s
+
+    def declared(self, decl: Key, tp: Any, x: object, key: str) -> Any:
+        """A value checked by its field's type ``tp`` (``X | None``: as ``X``) and
+        declaration: a number (``> 0`` when ``positive``; within ``bounds``, half-open for a
+        probability), an integer, a boolean, a string (one of ``allowed``), a path (relative,
+        as given) or an array of ``len(parts)`` bounded numbers. Keys beyond these have a
+        parser (``decl.parse``) and are not checked here."""
+        tp = optional_of(tp)
+        if tp is bool:
+            return self.boolean(x, key)
+        if tp is int:
+            return self.integer(x, key, decl.bounds)
+        if tp is float:
+            value = self.positive(x, key) if decl.positive else self.number(x, key)
+            if decl.bounds is None:
+                return value
+            if decl.half_open:
+                return self.probability(value, key, decl.bounds)
+            return self.bounded(value, key, *decl.bounds, decl.unit)
+        if tp is str:
+            return self.choice(x, key, decl.allowed, decl.what)
+        if tp is Path:
+            return Path(self.string(x, key)).expanduser()
+        if typing.get_origin(tp) is tuple and decl.parts:
+            n = len(decl.parts)
+            if not isinstance(x, list) or len(x) != n:
+                raise self.error(key, f"expected {n} numbers ({join_names(decl.parts)}), got "
+                                      f"{show_value(x)}")
+            lo, hi = decl.bounds if decl.bounds is not None else (-math.inf, math.inf)
+            return tuple(self.bounded(v, f"{key}[{i}]", lo, hi, decl.unit)
+                         for i, v in enumerate(x))
+        raise TypeError(f"{key}: no generic check for {tp}; declare a parser (parse=...)")
 
     def boolean(self, x: object, key: str) -> bool:
         if not isinstance(x, bool):

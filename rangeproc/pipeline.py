@@ -5,6 +5,7 @@ Each stage is a function from data to new data; ``run`` strings them together an
 """
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import platform as _platform
@@ -25,9 +26,7 @@ from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
 from rangeproc.editing.table import edit_table
 from rangeproc.editing.units import UnitSuspicion, angle_unit_checks, stated_sigma_line
-from rangeproc.errors import ConfigError, DataError
-from rangeproc.estimation.forward import EKF, UKF
-from rangeproc.estimation.imm import MODEL_NAMES
+from rangeproc.errors import ConfigError, DataError, OutputError, write_failure
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
 from rangeproc.fusion.assemble import Assembled, assemble_sensor
@@ -78,30 +77,25 @@ class RunOutput:
 
 
 def estimator_settings(cfg: Config) -> EstimatorSettings:
-    """Map the optional ``[processing]`` config section onto the estimator's settings."""
+    """The estimator's settings: the ``[processing]`` section (read by name; the forward
+    filter follows from ``processing.filter``) with what the sensors add, the calibration
+    terms and the refraction."""
+    return EstimatorSettings(processing=cfg.processing,
+                             calibration=calibration_specs(cfg) if cfg.processing.calibration
+                             else (), refraction=refraction_settings(cfg))
+
+
+def refraction_settings(cfg: Config) -> RefractionSettings | None:
+    """The refraction removed from the rows (``processing.refraction``; None for "none"):
+    each radar's ``refractivity``, each theodolite's ``optical_refractivity``."""
     p = cfg.processing
-    return EstimatorSettings(gate_probability=p.gate_probability, noise_passes=p.noise_passes,
-                             adapt_noise=p.adapt_noise, process_noise=p.process_noise,
-                             method=UKF if p.filter in ("ukf", "stukf") else EKF,
-                             max_gap=p.max_gap,
-                             adapt_window=p.sage_husa_window if p.filter == "sage-husa" else 0,
-                             adapt_mean=p.sage_husa_mean, askf=p.filter == "askf",
-                             maneuver_norm=p.maneuver_norm,
-                             stf=(p.stukf_forgetting, p.stukf_weakening, *p.stukf_ratios)
-                             if p.filter == "stukf" else (),
-                             imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
-                             if p.filter == "imm" else (), imm_sojourn=p.imm_sojourn,
-                             spline=p.filter == "spline",
-                             spline_probability=p.spline_anomaly_probability,
-                             spline_knot_spacing=p.spline_knot_spacing,
-                             calibration=calibration_specs(cfg) if p.calibration else (),
-                             refraction=None if p.refraction == "none" else RefractionSettings(
-                                 p.refraction,
-                                 tuple({"radar": p.refractivity,
-                                        "theodolite": p.optical_refractivity}.get(s.kind, 0.0)
-                                       for s in cfg.sensors),
-                                 tuple(s.platform is not None for s in cfg.sensors),
-                                 cfg.origin.height))
+    if p.refraction == "none":
+        return None
+    surface_n = {"radar": p.refractivity, "theodolite": p.optical_refractivity}
+    return RefractionSettings(model=p.refraction,
+                              surface_n=tuple(surface_n.get(s.kind, 0.0) for s in cfg.sensors),
+                              moving=tuple(s.platform is not None for s in cfg.sensors),
+                              origin_height=cfg.origin.height)
 
 
 def calibration_specs(cfg: Config) -> tuple[SensorCalibration | None, ...]:
@@ -165,7 +159,7 @@ def fuse_objects(cfg: Config, parts_of: dict, sensor_ids: tuple[str, ...],
         parts = parts_of.pop(oid)
         if not parts:
             log.warning("target %s: no measurements", oid)
-            tick(1 + settings.noise_passes, oid)
+            tick(1 + settings.processing.noise_passes, oid)
         else:
             jobs.append((oid, parts))
 
@@ -328,13 +322,13 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     kept = {sid: a.rows.source_row for sid, a in rows.items()}
     stray = stray_points(cfg, rows, synthesis)
     rows.clear()                                     # the object parts hold the data now
-    with clock.stage("fuse", len(parts_of) * (1 + settings.noise_passes)) as tick:
+    with clock.stage("fuse", len(parts_of) * (1 + settings.processing.noise_passes)) as tick:
         fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
     stated = stated_position_sigma(cfg.sensors)
     with clock.stage("products", len(fused)) as tick:   # tracks, residuals, summaries
         for tid, result in fused:
             track = track_estimate(tid, result, frame, cfg.output.rate_hz,
-                                   max_bridge=BRIDGE_FACTOR * settings.max_gap,
+                                   max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
                                    stated=stated)
             tracks.append(track)
             for i in np.unique(result.batch.sensor):
@@ -364,12 +358,12 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                 "n_epochs": len(track.time),
                 "gaps": _gaps(t_used, 1.0),
                 "spans": [list(sp) for sp in result.spans],
-                "max_gap_s": settings.max_gap,
+                "max_gap_s": settings.processing.max_gap,
                 "process_noise_q": {"unit": "m^2/s^5", "median": float(np.median(result.q)),
                                     "p95": float(np.percentile(result.q, 95)),
                                     "max": float(np.max(result.q))},
                 "divergence_resets": result.n_resets,
-                "maneuver_norm": {"unit": "m/s^2", "given": settings.maneuver_norm,
+                "maneuver_norm": {"unit": "m/s^2", "given": settings.processing.maneuver_norm,
                                   "imposed": result.maneuver_norm},
                 "max_sigma_position_m": float(np.sqrt(np.max(np.diagonal(
                     track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
@@ -410,9 +404,10 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
             write_parquet(table, stage / "fused.parquet")
             write_parquet(edit_rows, stage / "edits.parquet")
             write_parquet(association, stage / "association.parquet")
-            if cfg.output.export:       # [output] export: KML / CZML / CSV beside the table
+            if cfg.output.export:       # [output] export: KML / CZML / CSV / ACMI beside it
                 exports.extend(export_run(stage, cfg.output.export, epoch=cfg.output.epoch,
-                                          title=f"rangeproc {cfg.path.stem}", table=table))
+                                          title=f"rangeproc {cfg.path.stem}", table=table,
+                                          config=cfg))
 
         with clock.stage("report", 4 + len(residuals) + 2 * (synthesis is not None)) as tick:
             figures = write_report(stage / "report", tracks, residuals,
@@ -476,10 +471,23 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
     ``edits.parquet``, ``association.parquet``, the exports of ``[output] export``, then
     ``summary.json`` last, each by an atomic rename). A run that
     fails at any stage therefore leaves the previous run's outputs untouched and no partial or
-    mixed set behind.
+    mixed set behind. An operating-system failure to write (a full disk, a read-only folder:
+    ``errors.write_failure``) is an :class:`OutputError` naming the output's published
+    path in ``out_dir``, not its staged one.
     """
     remove_orphaned_staging(out_dir)
-    stage = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-", dir=out_dir))
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-", dir=out_dir))
+    except OSError as exc:
+        if (failure := write_failure(exc, out_dir)) is None:
+            raise
+        raise failure from exc
+
+    def published(path: str | Path) -> Path:
+        """Where a staged path is published (other paths unchanged)."""
+        path = Path(path)
+        return out_dir / path.relative_to(stage) if path.is_relative_to(stage) else path
+
     try:
         yield stage
         old = stage / ".old-report"
@@ -493,21 +501,30 @@ def staged_outputs(out_dir: Path) -> Iterator[Path]:
             if (stage / name).exists():
                 os.replace(stage / name, out_dir / name)
         os.replace(stage / "summary.json", out_dir / "summary.json")
+    except OutputError as exc:                   # written in the stage: name the final path
+        raise OutputError(published(exc.path), exc.cause) from exc.__cause__
+    except OSError as exc:                       # a rename into place
+        failure = write_failure(exc, published(exc.filename2 or exc.filename or out_dir))
+        if failure is None:
+            raise
+        raise failure from exc
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 
 
 def check_output_dir(cfg: Config) -> None:
     """Fail fast, before any processing and without creating anything, when ``[output].dir``
-    cannot be a writable directory (an existing file, or a parent that is not writable)."""
+    cannot be a writable directory: an existing file (ConfigError), or a folder on the way that
+    is not writable or on a read-only file system (OutputError naming it and the cause)."""
     out_dir = cfg.output.dir
     probe = out_dir
     while not probe.exists() and probe.parent != probe:
         probe = probe.parent
     if not probe.is_dir():
         raise ConfigError(f"{cfg.path.name}: output.dir: {probe} exists and is not a directory")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise ConfigError(f"{cfg.path.name}: output.dir: {probe} is not writable")
+    if not os.access(probe, os.W_OK | os.X_OK):      # read-only file system or no permission
+        read_only = hasattr(os, "statvfs") and os.statvfs(probe).f_flag & os.ST_RDONLY
+        raise OutputError(probe, os.strerror(errno.EROFS if read_only else errno.EACCES))
 
 
 def make_output_dir(cfg: Config) -> Path:
@@ -516,6 +533,8 @@ def make_output_dir(cfg: Config) -> Path:
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
+        if (failure := write_failure(exc, out_dir)) is not None:
+            raise failure from exc
         raise ConfigError(f"{cfg.path.name}: output.dir: cannot create {out_dir}: "
                           f"{exc.strerror or exc}") from exc
     return out_dir

@@ -3,20 +3,26 @@
 Plain data, no logic beyond defaults: ``rangeproc.config`` is the one module that reads TOML
 and builds these (and re-exports them, so ``from rangeproc.config import SensorSettings``
 works as before). SI units throughout (metres, seconds, radians), except geodetic degrees.
+
+Each settings field is the one declaration of its config key (``rangeproc.keys.key``): its
+default, meaning, unit, allowed values or bounds. To add a key, add a field here; the loader
+accepts and checks it, and ``docs/config.md`` lists it (``rangeproc.config_reference``).
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
+
+from rangeproc.keys import derived, key
 
 SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
 ANGLE_UNITS = ("deg", "rad", "mil")
 #: Motion models of the IMM, in the order of ``estimation.imm``'s model codes.
 IMM_MODELS = ("cv", "ca", "ct")
-#: Default strong-tracking weakening factor beta (seed 001 leaves it to experience). With
+#: Default strong-tracking weakening factor beta (Ye and Cui leave it to experience). With
 #: rho = 0.95 the innovation-covariance estimate V is an exponential average putting about
 #: half its weight on the newest innovation, so for white innovations of one component V has
 #: a standard deviation of about 0.83 around 1: beta = 3 (some 2.4 of those above the mean)
@@ -26,6 +32,8 @@ STUKF_WEAKENING = 3.0
 #: ``frames.refraction.optical_refractivity``).
 OPTICAL_REFRACTIVITY = 277.9
 REFRACTION_MODELS = ("none", "4/3", "exponential")
+#: The forward filters of ``processing.filter`` (``fusion.centralised.filter_family``).
+FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf", "imm", "spline")
 #: Calibration terms (``summary.json`` ``calibration.<name>``, data contract section 4), SI.
 CALIBRATION_NAMES = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch",
                      "mount_yaw")
@@ -41,60 +49,110 @@ def calibration_terms(kind: str, on_platform: bool) -> tuple[str, ...]:
                  if on_platform or not n.startswith("mount_"))
 
 
+# --------------------------------------------------------------------------------------------
+# Plausibility bounds of config numbers (``rangeproc.config`` re-exports them): a finite value
+# outside them is a typo or a unit mistake, and would overflow or exhaust the processing
+# (e.g. rate_hz = 1e9 asks for a billion output epochs per second).
+# --------------------------------------------------------------------------------------------
+#: heights of the origin, sites and stations (m): deepest trench to beyond the Moon's distance
+HEIGHT_BOUNDS = (-12_000.0, 1.0e9)
+#: |time| (s) of any time stamp, time_offset or initial time: about 317 years, float64 still
+#: resolves 2e-6 s there (also the screening's bound on the stamps, ``editing.timecheck``)
+MAX_ABS_TIME = 1.0e10
+#: |speed| (m/s) of anything: the speed of light (initial velocities, processing.max_speed)
+MAX_SPEED = 3.0e8
+#: output.rate_hz (Hz): one epoch per 1000 s to 1000 per second
+RATE_HZ_BOUNDS = (1e-3, 1000.0)
+#: processing.noise_passes
+MAX_NOISE_PASSES = 20
+#: processing.process_noise (m^2/s^5)
+PROCESS_NOISE_BOUNDS = (1e-12, 1e12)
+#: processing.gate_probability
+GATE_PROBABILITY_BOUNDS = (0.5, 1.0)
+#: a-priori sigmas in SI (m, m/s, rad); angles at most one turn
+SIGMA_BOUNDS = (1e-12, 1e9)
+MAX_SIGMA_ANGLE = 2.0 * math.pi
+#: |lever_arm| components (m)
+MAX_LEVER_ARM = 1.0e4
+#: |known calibration corrections|: range bias (m), angles (rad; a quarter turn)
+MAX_CALIBRATION_RANGE = 1.0e5
+MAX_CALIBRATION_ANGLE = 0.5 * math.pi
+#: Bounds of each strong-tracking prior ratio alpha (Ye and Cui: alpha >= 1).
+STUKF_RATIO_BOUNDS = (1.0, 1e3)
+#: processing.spline_knot_spacing (s): regular knots of the batch spline fit
+SPLINE_SPACING_BOUNDS = (1e-3, 1e5)
+#: processing.spline_anomaly_probability: 1 - alpha of Zhou et al.'s chi-square anomaly test
+SPLINE_PROBABILITY_BOUNDS = (0.5, 1.0)
+
+
+# --------------------------------------------------------------------------------------------
+# The settings. Each field is the one declaration of its config key (``rangeproc.keys.key``):
+# default, meaning, unit, allowed values or bounds. The loader's key lists, checks and
+# messages, the estimator's settings and docs/config.md are computed from these fields.
+# --------------------------------------------------------------------------------------------
+
 @dataclass(frozen=True, kw_only=True, slots=True)
 class Geodetic:
     """A WGS-84 point: ``lat``, ``lon`` in degrees (east positive), ``height`` in metres."""
 
-    lat: float
-    lon: float
-    height: float
+    lat: float = key(doc="Latitude, north positive.", unit="deg", bounds=(-90.0, 90.0))
+    lon: float = key(doc="Longitude, east positive (0 to 360 is accepted too).", unit="deg",
+                     bounds=(-180.0, 360.0), half_open=True)
+    height: float = key(doc="Height above the WGS-84 ellipsoid.", unit="m",
+                        bounds=HEIGHT_BOUNDS)
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class OutputSettings:
-    """``[output]``: ``dir`` resolved to an absolute path; ``rate_hz`` fused sample rate (Hz);
-    ``export``: interchange formats written with every run (``rangeproc.interchange``:
-    "kml", "czml", "csv"); ``epoch``: the UTC instant (ISO 8601 with an offset) of time 0 on
-    the range's time scale, for the report's and the exports' calendar times (None: not given;
-    the calendar is then known only for Unix-scale times, ``rangeproc.timescale``)."""
+    """``[output]``: where and how the fused products are written."""
 
-    dir: Path
-    rate_hz: float = 10.0
-    export: tuple[str, ...] = ()
-    epoch: str | None = None
+    dir: Path = key(Path("out"), doc="Output folder, relative to the config file's folder "
+                    "(the loader makes it absolute).")
+    rate_hz: float = key(10.0, doc="Sample rate of the fused trajectory.", unit="Hz",
+                         positive=True, bounds=RATE_HZ_BOUNDS)
+    export: tuple[str, ...] = key(
+        (), doc="Interchange formats written with every run (``rangeproc.interchange``); "
+        "case is ignored, a repeat counts once.", allowed_from="rangeproc.interchange:FORMATS",
+        parse="export")
+    epoch: str | None = key(
+        None, doc="The UTC instant (ISO 8601 with an offset or Z) of time 0 on the range's "
+        "time scale, for the report's and the exports' calendar times; not set: the calendar "
+        "is known only for Unix-scale times (``rangeproc.timescale``).", parse="epoch")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class InitialState:
     """A target's known state (``[[targets]] initial``), for data that cannot start a track
-    by itself (e.g. MISTRAM range rates alone).
+    by itself (e.g. MISTRAM range rates alone)."""
 
-    time: s on the range time scale; position: WGS-84 ``lat``, ``lon`` (deg), ``height`` (m);
-    velocity ``ve, vn, vu`` (m/s) in the range ENU frame; ``sigma_position`` (m) and
-    ``sigma_velocity`` (m/s): 1-sigma per axis.
-    """
-
-    time: float
-    position: Geodetic
-    velocity: tuple[float, float, float]
-    sigma_position: float
-    sigma_velocity: float
+    time: float = key(doc="Time of the state on the range time scale.", unit="s",
+                      bounds=(-MAX_ABS_TIME, MAX_ABS_TIME))
+    position: Geodetic = key(doc="The state's WGS-84 position.", flatten=True)
+    velocity: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0), doc="Velocity in the range ENU frame (east, north, up).",
+        unit="m/s", parts=("ve", "vn", "vu"), flatten=True, bounds=(-MAX_SPEED, MAX_SPEED))
+    sigma_position: float = key(100.0, doc="1-sigma of the position, per axis.", unit="m",
+                                positive=True, bounds=SIGMA_BOUNDS)
+    sigma_velocity: float = key(50.0, doc="1-sigma of the velocity, per axis.", unit="m/s",
+                                positive=True, bounds=SIGMA_BOUNDS)
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class TargetSettings:
     """``[[targets]]`` entry: ``id`` and the optional ``initial`` state."""
 
-    id: str
-    initial: InitialState | None = None
+    id: str = key(doc="The target's name (gps and mistram sensors name it in ``target``).")
+    initial: InitialState | None = key(
+        None, doc="A known state of the target (table below), used where its data cannot "
+        "start a track.", parse="initial")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class StationSettings:
     """A MISTRAM ground station (fixed)."""
 
-    id: str
-    site: Geodetic
+    id: str = key(doc="The station's name (the data's ``station`` column).")
+    site: Geodetic = key(doc="The station's WGS-84 position.", flatten=True)
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -110,105 +168,167 @@ class SensorSettings:
     else (a known latency is ``time_offset``).
     """
 
-    id: str
-    kind: str
-    file: Path
-    site: Geodetic | None = None
-    platform: str | None = None
-    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    angle_unit: str = "deg"
-    time_offset: float = 0.0
-    sigma: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
-    target: str | None = None
-    stations: tuple[StationSettings, ...] = ()
-    allow_disjoint_time: bool = False
-    calibrate: tuple[str, ...] = CALIBRATION_NAMES
-    calibration: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    id: str = key(doc="The sensor's unique name.")
+    kind: str = key(doc="What the sensor measures (data contract section 2).",
+                    allowed=SENSOR_KINDS, what="sensor kind")
+    file: Path = key(doc="The sensor's data file (CSV or Parquet), relative to the config "
+                     "file's folder; not opened by the loader.")
+    site: Geodetic | None = key(
+        None, doc="Fixed WGS-84 position of a radar or theodolite (exactly one of site or "
+        "platform; not allowed for other kinds).", parse="geodetic")
+    platform: str | None = key(
+        None, doc="id of the ins sensor carrying a radar or theodolite (exactly one of site or "
+        "platform; not allowed for other kinds).")
+    lever_arm: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0), doc="The sensor's position in the platform's body frame (forward, "
+        "right, down); only together with platform.", unit="m", parts=("x", "y", "z"),
+        bounds=(-MAX_LEVER_ARM, MAX_LEVER_ARM), parse="lever_arm")
+    angle_unit: str = key("deg", doc="Unit of the angles in the data file and of the angle "
+                          "entries of sigma and calibration.", allowed=ANGLE_UNITS,
+                          what="angle unit")
+    time_offset: float = key(
+        0.0, doc="Added to the file's time stamps to put them on the range time scale (a "
+        "known latency); a date or instant (ISO 8601 with an offset or Z, or a TOML date) "
+        "means its seconds since 1970-01-01T00:00:00Z.", unit="s",
+        bounds=(-MAX_ABS_TIME, MAX_ABS_TIME), parse="instant", toml="number or date-time")
+    sigma: Mapping[str, float] = key(
+        factory=lambda: MappingProxyType({}), doc="A-priori 1-sigma per measured component "
+        "(m, m/s; angles in angle_unit); components not stated keep the kind's defaults "
+        "(table below).", parse="sigma", default_doc="the kind's defaults")
+    target: str | None = key(
+        None, doc="The target carrying a gps or mistram sensor (only those kinds); may be "
+        "omitted when there is one target.", default_doc="the only target")
+    stations: tuple[StationSettings, ...] = key(
+        (), doc="The ground stations of a mistram sensor (required for mistram, not allowed "
+        "for other kinds).", parse="stations")
+    allow_disjoint_time: bool = key(
+        False, doc="Accept a sensor whose rows all lie farther than processing.time_margin "
+        "from every other sensor's (otherwise refused: wrong time scale or time_offset).")
+    calibrate: tuple[str, ...] = key(
+        CALIBRATION_NAMES, doc="The calibration terms rangeproc may estimate for this sensor "
+        "(true: all its kind has, table below; false: none).", allowed=CALIBRATION_NAMES,
+        parse="calibrate", toml="boolean or array of strings",
+        default_doc="true (every term of the kind)")
+    calibration: Mapping[str, float] = key(
+        factory=lambda: MappingProxyType({}), doc="Known corrections removed from the rows "
+        "before anything else: range bias (m) and angle biases (angle_unit) of the kind's "
+        "terms other than latency, measured minus true (a known latency is time_offset).",
+        parse="known_calibration", default_doc="none")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class ProcessingSettings:
     """Optional ``[processing]`` section (rangeproc's own; every field has a working default).
 
-    gate_probability: chi-square gate probability for innovation gating (per measurement row).
-    noise_passes: refinement passes after the first (re-linearisation at the smoothed track,
-        noise and process-noise re-estimation).
-    adapt_noise: estimate per-sensor noise (and local bursts) from the data.
-    process_noise: white-jerk PSD q (m^2/s^5) of the constant-acceleration model; None =
-        estimate it from the data (maximum likelihood, then local EM).
-    filter: "ekf" (linearised, Joseph form), "ukf" (unscented), "stukf" (strong-tracking UKF
-        with multiple suboptimal fading factors, seed 001), "sage-husa" (the EKF with
-        improved Sage-Husa adaptive measurement noise, seed 002), "imm" (interacting multiple
-        models with Kim's smoother), "askf" (augmented-state filter with the maneuver-norm
-        constraint, seed 004) or "spline" (seed 000's self-adaptive spline filter, then the
-        batch cubic B-spline fit).
-    sage_husa_window: rows per sensor component in the Sage-Husa window (seed 002: 100).
-    sage_husa_mean: Sage-Husa also estimates and removes the measurement-noise mean.
-    maneuver_norm: the constant maneuver acceleration norm (m/s^2) of ``filter = "askf"``
-        (seed 004); None = estimate it.
-    stukf_forgetting, stukf_weakening, stukf_ratios: the strong-tracking forgetting factor rho
-        of the innovation covariance (seed 001: 0.95), weakening factor beta >= 1 and prior
-        ratios alpha >= 1 of position, velocity and acceleration (``estimation.fading``).
-    imm_models, imm_sojourn: the IMM's model set (of "cv", "ca", "ct") and the mean time (s)
-        spent in a model before switching, to each other model alike (``estimation.imm``).
-    spline_knot_spacing: regular knot spacing (s) of the batch spline fit of
-        ``filter = "spline"``; None = from the data's dynamics (``fusion.spline_refine``).
-    spline_anomaly_probability: probability ``1 - alpha`` of seed 000's chi-square anomaly
-        test (``filter = "spline"``; default 0.999).
-    max_gap: a target unobserved for longer than this (s) is split into separate spans with no
-        output epochs in between; also the distance that makes a sensor's time stamps isolated.
-    time_margin: a sensor whose rows all lie farther than this (s) from every other sensor's
-        rows is refused (wrong time scale or time_offset), unless ``allow_disjoint_time``.
-    max_speed: physical speed limit (m/s) of targets and platforms (range rates, velocities,
-        jumps between consecutive fixes).
-    max_range: physical range limit (m) of radars and laser rangers; also the highest height.
-    calibration: estimate the sensors' biases, latency and mount misalignment
-        (``fusion.registration``) in the refinement passes.
-    refraction: "none", "4/3" or "exponential": remove atmospheric refraction from radar and
-        theodolite elevations and ranges (``fusion.refraction_rows``) in the refinement passes;
-        refractivity / optical_refractivity: surface refractivity (N-units) of radars and of
-        theodolites (optical; laser ranges too).
-    hampel_window, hampel_threshold: half-width (samples) and threshold (robust sigmas) of the
-        Hampel pre-edit (``editing.hampel``); ``hampel_window = 0`` switches it off.
+    Each field's declaration (its ``key(...)``) gives its meaning, unit and bounds; the
+    estimator (``fusion.centralised.EstimatorSettings``) reads these fields by name.
     """
 
-    gate_probability: float = 0.9999
-    noise_passes: int = 2
-    adapt_noise: bool = True
-    process_noise: float | None = None
-    filter: str = "ekf"
-    max_gap: float = 60.0
-    time_margin: float = 60.0
-    max_speed: float = 2.0e4
-    max_range: float = 5.0e7
-    sage_husa_window: int = 100
-    sage_husa_mean: bool = False
-    maneuver_norm: float | None = None
-    stukf_forgetting: float = 0.95
-    stukf_weakening: float = STUKF_WEAKENING
-    stukf_ratios: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    imm_models: tuple[str, ...] = ("cv", "ca", "ct")
-    imm_sojourn: float = 10.0
-    spline_knot_spacing: float | None = None
-    spline_anomaly_probability: float = 0.999
-    calibration: bool = True
-    refraction: str = "none"
-    refractivity: float = 313.0
-    optical_refractivity: float = OPTICAL_REFRACTIVITY
-    hampel_window: int = 7
-    hampel_threshold: float = 6.0
+    gate_probability: float = key(
+        0.9999, doc="Chi-square gate probability of innovation gating (per measurement row).",
+        bounds=GATE_PROBABILITY_BOUNDS, half_open=True)
+    noise_passes: int = key(
+        2, doc="Refinement passes after the first (re-linearisation at the smoothed track, "
+        "noise and process-noise re-estimation).", bounds=(0, MAX_NOISE_PASSES))
+    adapt_noise: bool = key(
+        True, doc="Estimate per-sensor noise (and local bursts) from the data.")
+    process_noise: float | None = key(
+        None, doc="White-jerk PSD q of the constant-acceleration model; not set: estimated "
+        "from the data (maximum likelihood, then local EM).", unit="m^2/s^5", positive=True,
+        bounds=PROCESS_NOISE_BOUNDS)
+    filter: str = key(
+        "ekf", doc='The forward filter: "ekf" (linearised, Joseph form), "ukf" (unscented), '
+        '"stukf" (strong-tracking UKF with multiple suboptimal fading factors, Ye and Cui), '
+        '"sage-husa" (the EKF with improved Sage-Husa adaptive measurement noise, Song et '
+        'al. 2011), "askf" (augmented-state filter with the maneuver-norm constraint of '
+        'patent CN109581356A), "imm" (interacting multiple models with Kim\'s smoother) or '
+        '"spline" (Zhou et al.\'s self-adaptive spline filter, then the batch cubic B-spline '
+        "fit).",
+        allowed=FILTERS, what="filter")
+    max_gap: float = key(
+        60.0, doc="A target unobserved for longer than this is split into separate spans "
+        "with no output epochs in between; also the distance that makes a sensor's time "
+        "stamps isolated.", unit="s", bounds=(1e-3, 1e7))
+    time_margin: float = key(
+        60.0, doc="A sensor whose rows all lie farther than this from every other sensor's "
+        "rows is refused (wrong time scale or time_offset), unless allow_disjoint_time.",
+        unit="s", bounds=(0.0, 1e10))
+    max_speed: float = key(
+        2.0e4, doc="Physical speed limit of targets and platforms (range rates, velocities, "
+        "jumps between consecutive fixes).", unit="m/s", bounds=(1.0, MAX_SPEED))
+    max_range: float = key(
+        5.0e7, doc="Physical range limit of radars and laser rangers; also the highest "
+        "height.", unit="m", bounds=(1.0, 1.0e12))
+    sage_husa_window: int = key(
+        100, doc='Rows per sensor component in the Sage-Husa window (filter = "sage-husa"; '
+        "Song et al. 2011: 100).", unit="rows", bounds=(2, 100_000))
+    sage_husa_mean: bool = key(
+        False, doc="Sage-Husa also estimates and removes the measurement-noise mean.")
+    maneuver_norm: float | None = key(
+        None, doc='The constant maneuver acceleration norm of filter = "askf" (patent '
+        "CN109581356A); not set: estimated.", unit="m/s^2", positive=True, bounds=(1e-6, 1e5))
+    stukf_forgetting: float = key(
+        0.95, doc="Strong-tracking forgetting factor rho of the innovation covariance "
+        "(Ye and Cui: 0.95; ``estimation.fading``).", bounds=(1e-3, 1.0))
+    stukf_weakening: float = key(
+        STUKF_WEAKENING, doc="Strong-tracking weakening factor beta >= 1: noise alone must "
+        "not fade a consistent filter (``settings.STUKF_WEAKENING``).", bounds=(1.0, 1e3))
+    stukf_ratios: tuple[float, float, float] = key(
+        (1.0, 1.0, 1.0), doc="Strong-tracking prior ratios alpha >= 1 of position, velocity "
+        "and acceleration.", parts=("position", "velocity", "acceleration"),
+        bounds=STUKF_RATIO_BOUNDS)
+    imm_models: tuple[str, ...] = key(
+        ("cv", "ca", "ct"), doc='The IMM\'s motion models (filter = "imm"; '
+        "``estimation.imm``), each at most once.", allowed=IMM_MODELS, what="model",
+        parse="imm_models", toml="array of strings")
+    imm_sojourn: float = key(
+        10.0, doc="Mean time the IMM spends in a model before switching, to each other model "
+        "alike.", unit="s", bounds=(1e-3, 1e7))
+    spline_knot_spacing: float | None = key(
+        None, doc='Regular knot spacing of the batch spline fit of filter = "spline"; not '
+        "set: from the data's dynamics (``fusion.spline_refine``).", unit="s", positive=True,
+        bounds=SPLINE_SPACING_BOUNDS)
+    spline_anomaly_probability: float = key(
+        0.999, doc="Probability 1 - alpha of Zhou et al.'s chi-square anomaly test "
+        '(filter = "spline").', bounds=SPLINE_PROBABILITY_BOUNDS, half_open=True)
+    calibration: bool = key(
+        True, doc="Estimate the sensors' biases, latency and mount misalignment "
+        "(``fusion.registration``) in the refinement passes.")
+    refraction: str = key(
+        "none", doc="Remove atmospheric refraction from radar and theodolite elevations and "
+        "ranges (``fusion.refraction_rows``) in the refinement passes, with this model.",
+        allowed=REFRACTION_MODELS, what="model")
+    refractivity: float = key(
+        313.0, doc="Surface refractivity of the radars' refraction.", unit="N-units",
+        bounds=(0.0, 1000.0))
+    optical_refractivity: float = key(
+        OPTICAL_REFRACTIVITY, doc="Surface refractivity of the theodolites' (optical; laser "
+        "ranges too) refraction.", unit="N-units", bounds=(0.0, 1000.0))
+    hampel_window: int = key(
+        7, doc="Half-width of the Hampel pre-edit (``editing.hampel``); 0 switches it off.",
+        unit="samples", bounds=(0, 1000))
+    hampel_threshold: float = key(
+        6.0, doc="Threshold of the Hampel pre-edit.", unit="robust sigmas",
+        bounds=(1.0, 1e6))
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class Config:
     """The whole validated config. ``path`` is the config file (absolute)."""
 
-    path: Path
-    origin: Geodetic
-    output: OutputSettings
-    targets: tuple[TargetSettings, ...]
-    sensors: tuple[SensorSettings, ...]
-    processing: ProcessingSettings = ProcessingSettings()
+    path: Path = derived("The config file (absolute).")
+    origin: Geodetic = key(doc="The range's origin: the range ENU frame's origin (table "
+                           "below).", table="range", parse="geodetic")
+    output: OutputSettings = key(doc="Where and how the products are written (table below).",
+                                 parse="output", default_doc="all defaults")
+    targets: tuple[TargetSettings, ...] = key(
+        doc="The tracked objects with an id (table below).", parse="targets",
+        default_doc='the targets the gps and mistram sensors name, else one target "T1"')
+    sensors: tuple[SensorSettings, ...] = key(doc="The sensors, at least one (table below).",
+                                              parse="sensors")
+    processing: ProcessingSettings = key(
+        ProcessingSettings(), doc="rangeproc's processing choices (table below).",
+        parse="processing", default_doc="all defaults")
 
 
 # --------------------------------------------------------------------------------------------

@@ -2,8 +2,9 @@
 
 Every unusable input or config gives exit status 2 and exactly one line on stderr,
 ``rangeproc: error: <message>``, naming the file and the row/column or key at fault, with no
-traceback and no output file created. Numerical failures give 3, anything else 1 (a traceback
-only with ``--debug``). Output files are atomic: a failure never leaves a partial or temp file.
+traceback and no output file created. Numerical failures give 3, an output that cannot be
+written 5 (one line naming the path and the cause), anything else 1 (a traceback only with
+``--debug``). Output files are atomic: a failure never leaves a partial or temp file.
 
 Each case mutates a fresh copy of sample_data (``scenario`` fixture); sample_data/ itself is
 never touched.
@@ -11,7 +12,9 @@ never touched.
 from __future__ import annotations
 
 import csv
+import errno
 import io
+import os
 import subprocess
 import sys
 import textwrap
@@ -431,9 +434,10 @@ def test_report_failure_inside_a_png_write(cli, explain, scenario, monkeypatch):
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", half_write)
     result = cli(["run", scenario / CONFIG])
-    line = assert_one_error_line(result, explain, 1, "No space left on device")
-    assert "internal error" in line
     out = scenario / "out"
+    line = assert_one_error_line(result, explain, 5, "No space left on device")
+    assert line.startswith(f"rangeproc: error: cannot write {out.resolve() / 'report'}/")
+    assert line.endswith(".png: No space left on device"), line
     assert temp_files(out) == []
     assert listing(out) == []
 
@@ -448,7 +452,54 @@ def test_parquet_write_failure_leaves_no_fused_file(cli, explain, scenario, monk
 
     monkeypatch.setattr(pq, "write_table", half_write)
     result = cli(["run", scenario / CONFIG])
-    assert_one_error_line(result, explain, 1, "No space left on device")
     out = scenario / "out"
+    line = assert_one_error_line(result, explain, 5)
+    assert line == (f"rangeproc: error: cannot write {out.resolve() / 'fused.parquet'}: "
+                    "No space left on device")
     assert temp_files(out) == []
     assert listing(out) == []  # no fused.parquet, no summary.json, no figure
+
+
+@pytest.mark.parametrize("code", [errno.ENOSPC, errno.EROFS, errno.EACCES])
+def test_an_output_that_cannot_be_written_is_one_line_exit_5(cli, explain, scenario,
+                                                             monkeypatch, code):
+    """The OS refuses a write (pyarrow's own wording of a full disk, a read-only file
+    system, no permission) on a rerun: one line naming the published path and the OS's
+    cause, exit 5, the previous run's outputs untouched and nothing staged left."""
+    keep_sensors(scenario, FAST)
+    assert cli(["run", scenario / CONFIG, "--quiet"]).exit_code == 0
+    out = scenario / "out"
+    before = {name: (out / name).read_bytes() for name in listing(out)}
+
+    def refused(table, where, *args, **kwargs):
+        raise OSError(code, f"Error writing bytes to file. Detail: [errno {code}] "
+                            f"{os.strerror(code)}")
+
+    monkeypatch.setattr(pq, "write_table", refused)
+    result = cli(["run", scenario / CONFIG])
+    line = assert_one_error_line(result, explain, 5)
+    assert line == (f"rangeproc: error: cannot write {out.resolve() / 'fused.parquet'}: "
+                    f"{os.strerror(code)}")
+    assert temp_files(out) == []
+    assert {name: (out / name).read_bytes() for name in listing(out)} == before
+
+
+def test_a_read_only_output_folder_is_one_line_exit_5(cli, explain, scenario, monkeypatch):
+    """A pre-created output folder without write permission: refused before any processing
+    with one line naming the folder, exit 5, nothing written. Root ignores permissions, so
+    there the folder's check (``os.access``) is made to answer as for another user."""
+    keep_sensors(scenario, FAST)
+    out = scenario / "out"
+    out.mkdir()
+    out.chmod(0o555)
+    try:
+        if os.geteuid() == 0:
+            real = os.access
+            monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if Path(
+                path) == out.resolve() and mode & os.W_OK else real(path, mode, **kw))
+        result = cli(["run", scenario / CONFIG])
+    finally:
+        out.chmod(0o755)
+    line = assert_one_error_line(result, explain, 5)
+    assert line == f"rangeproc: error: cannot write {out.resolve()}: Permission denied"
+    assert listing(out) == [] and list(out.iterdir()) == []

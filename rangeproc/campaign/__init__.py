@@ -1,7 +1,7 @@
-"""Whole test campaigns (issue 11, part 1): many ``rangeproc run``s on a Dask cluster.
+"""Whole test campaigns: many ``rangeproc run``s on a Dask cluster.
 
-``load_campaign`` reads the campaign (a TOML list of sortie configs, or a folder of them,
-``campaign.spec``); ``run_campaign`` runs every sortie as one Dask task
+``load_campaign`` reads the campaign (a TOML list of sortie configs, or a folder of them or
+of sortie folders, ``campaign.spec``); ``run_campaign`` runs every sortie as one Dask task
 (``campaign.runner``, ``campaign.sortie``): in parallel on this machine by default, on an
 existing cluster with a scheduler address; failures are recorded per sortie and the others
 go on; a rerun skips sorties whose outputs match their config and inputs. A campaign is

@@ -1,7 +1,8 @@
 """One sortie of a campaign, as a Dask task: resume check, ``rangeproc run``, outcome.
 
 :func:`run_sortie` never raises for the sortie's own trouble: a bad input or config (exit 2),
-a numerical failure (exit 3) or anything unexpected (exit 1) becomes a ``failed``
+a numerical failure (exit 3), an output that cannot be written (exit 5: a full disk, a
+read-only folder) or anything unexpected (exit 1) becomes a ``failed``
 :class:`Outcome` with the one-line reason ``rangeproc run`` would print, so one bad flight
 never stops the others. The outputs are exactly ``rangeproc run``'s (``pipeline.run``:
 staged and renamed into place, so a sortie that fails or whose worker dies leaves its
@@ -21,10 +22,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from rangeproc.campaign.spec import Sortie
-from rangeproc.errors import ConfigError, DataError, NumericalError, RangeprocError
+from rangeproc.errors import (ConfigError, DataError, NumericalError, OutputError,
+                              RangeprocError, write_failure)
 
 #: Exit status of each failure kind (as ``rangeproc run``).
-EXIT_OF = ((ConfigError, 2), (DataError, 2), (NumericalError, 3), (RangeprocError, 1))
+EXIT_OF = ((ConfigError, 2), (DataError, 2), (NumericalError, 3), (OutputError, 5),
+           (RangeprocError, 1))
 #: Outputs whose presence (with a matching summary) makes a sortie done.
 DONE_FILES = ("fused.parquet", "summary.json", "report/index.html")
 
@@ -86,7 +89,8 @@ def run_sortie(sortie: Sortie, resume: bool = True) -> Outcome:
                        seconds=time.perf_counter() - t0)
     try:
         result = run(sortie.config, clock=StageClock())
-    except Exception as exc:  # noqa: BLE001 - every failure is this sortie's outcome
+    except Exception as raised:  # noqa: BLE001 - every failure is this sortie's outcome
+        exc = write_failure(raised, getattr(raised, "filename", None) or "the outputs") or raised
         code = next((c for kind, c in EXIT_OF if isinstance(exc, kind)), 1)
         reason = str(exc) if isinstance(exc, RangeprocError) else \
             f"internal error: {type(exc).__name__}: {exc}"

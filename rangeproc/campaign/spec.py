@@ -11,8 +11,10 @@ A campaign is given as either
       config = "flights/f101.toml"   # relative to the campaign file
       id = "F101"                    # optional; default the config's file stem
 
-* or a folder: every ``*.toml`` in it (sorted by name) is a sortie, and the records go to
-  ``<folder>/campaign``.
+* or a folder: every ``*.toml`` in it is a sortie (its id the file stem), and so is every
+  immediate sub-folder holding a ``config.toml`` (its id the sub-folder's name), sorted by
+  id; each sortie writes where its config's ``[output].dir`` says, and the campaign's
+  records go to ``<folder>/campaign``.
 
 Sortie ids must be unique, and no two sorties may write the same ``[output].dir``; both are
 one-line errors (exit 2) naming the file and key, before anything runs. A sortie's own
@@ -53,10 +55,10 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read a campaign file or folder (module docstring); ConfigError on anything unusable."""
     path = Path(path)
     if path.is_dir():
-        configs = sorted(p for p in path.glob("*.toml") if p.is_file())
-        if not configs:
-            raise ConfigError(f"{path}: no *.toml sortie configs in this folder")
-        sorties = [Sortie(p.stem, p.resolve()) for p in configs]
+        sorties = sorted(_folder_sorties(path), key=lambda s: s.id)
+        if not sorties:
+            raise ConfigError(f"{path}: no sortie configs in this folder (*.toml, or "
+                              "sub-folders each holding a config.toml)")
         campaign = Campaign(path.resolve(), tuple(sorties), (path / "campaign").resolve())
     elif path.is_file():
         campaign = _from_file(path)
@@ -64,6 +66,15 @@ def load_campaign(path: str | Path) -> Campaign:
         raise ConfigError(f"{path}: no such campaign file or folder")
     _check_unique(campaign)
     return campaign
+
+
+def _folder_sorties(path: Path) -> list[Sortie]:
+    """A campaign folder's sorties: its ``*.toml`` files (id: the file stem) and its
+    immediate sub-folders holding a ``config.toml`` (id: the sub-folder's name)."""
+    sorties = [Sortie(p.stem, p.resolve()) for p in path.glob("*.toml") if p.is_file()]
+    sorties += [Sortie(d.name, (d / "config.toml").resolve()) for d in path.iterdir()
+                if d.is_dir() and (d / "config.toml").is_file()]
+    return sorties
 
 
 def _from_file(path: Path) -> Campaign:

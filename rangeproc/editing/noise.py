@@ -12,8 +12,9 @@ Two estimators, both robust to wild points (median based):
   part (``E[res^2] = sigma^2 - H P_s H^T``), and
   a local (running-median) scale that follows noise bursts, jamming or multipath: where the
   local scale exceeds the global one by ``burst_ratio`` the row gets the local sigma (the local
-  scale is dilated over a quarter window so the edges of a short burst are covered too). This is the
-  residual-RMS adaptation of seed 000 sec. 2.3.1, done as a smoother-based, windowed estimate.
+  scale is dilated over a quarter window so the edges of a short burst are covered too). This is
+  the residual-RMS adaptation of Zhou et al. 2001 sec. 2.3.1, done as a smoother-based, windowed
+  estimate.
   Finally each row is down-weighted by Huber's rule (weight ``min(1, k / |u|)`` for the
   normalised residual ``u``, i.e. sigma times ``sqrt(|u| / k)``), the M-estimation answer to
   residuals that are large but not wild; gross outliers are still rejected by the gate.

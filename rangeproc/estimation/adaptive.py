@@ -1,6 +1,6 @@
-"""Improved Sage-Husa adaptive measurement noise (seed 002), inside the compiled filter loop.
+"""Improved Sage-Husa adaptive measurement noise (Song et al. 2011) in the compiled filter loop.
 
-Seed 002 (eqs. 20-28) estimates the measurement-noise mean ``r`` and covariance ``R``
+Song et al. 2011 (eqs. 20-28) estimate the measurement-noise mean ``r`` and covariance ``R``
 recursively from the filter's residuals, and its "improved" form does it over a sliding window
 of the latest 100 samples so that old data are forgotten. Here, per sensor and measured
 component (independent series, so ``R`` is diagonal in each sensor's own components):
@@ -22,7 +22,7 @@ definite, bounded), gated rows never enter the window (a wild point cannot infla
 a divergence test that falls back: when the filter's divergence guard fires (a sensor rejected
 ``reset_after`` times in a row), every window restarts from the a-priori noise. The process
 noise is adapted by the smoother's local EM statistic (``estimation.tuning``), the offline
-counterpart of seed 002's recursive ``Q``.
+counterpart of Song et al.'s recursive ``Q``.
 
 State layout (arrays allocated by ``kalman_forward``, one row per series
 ``g = sensor * 6 + component``):

@@ -1,14 +1,15 @@
-"""Maneuver-norm constraint of the augmented-state Kalman filter (seed 004, CN109581356A).
+"""Maneuver-norm constraint of the augmented-state Kalman filter (patent CN109581356A).
 
-Seed 004 tracks a target whose maneuver acceleration ``d`` has a constant norm ``rho`` but a
-slowly turning direction: the augmented-state filter (ASKF) estimates ``d`` with the state (in
-the constant-acceleration state ``[e, n, u, ve, vn, vu, ae, an, au]`` the acceleration block is
-that ``d``), and the constraint ``||d|| = rho`` is imposed on the estimate. The document does it
-inside each real-time update (a Lagrange multiplier on the gain; its quadratic has two roots,
-the second-order condition keeps the one that scales the unconstrained estimate onto the
-sphere). rangeproc is offline: the constraint must hold for the *smoothed* trajectory too,
-and a filter whose estimates are projected after the fact is no longer what the RTS smoother
-assumes. So the constraint enters as what it is, one more (pseudo-)measurement at every epoch,
+Patent CN109581356A tracks a target whose maneuver acceleration ``d`` has a constant norm
+``rho`` but a slowly turning direction: the augmented-state filter (ASKF) estimates ``d`` with
+the state (in the constant-acceleration state ``[e, n, u, ve, vn, vu, ae, an, au]`` the
+acceleration block is that ``d``), and the constraint ``||d|| = rho`` is imposed on the
+estimate. The document does it inside each real-time update (a Lagrange multiplier on the gain;
+its quadratic has two roots, the second-order condition keeps the one that scales the
+unconstrained estimate onto the sphere). rangeproc is offline: the constraint must hold for the
+*smoothed* trajectory too, and a filter whose estimates are projected after the fact is no
+longer what the RTS smoother assumes. So the constraint enters as what it is, one more
+(pseudo-)measurement at every epoch,
 
     z = rho,   h(x) = ||d||,   H = [0 0 0 0 0 0 u^T],  u = d_lin / ||d_lin||,
 

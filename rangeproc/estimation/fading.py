@@ -1,6 +1,6 @@
-"""Strong tracking: multiple suboptimal fading factors on the predicted covariance (seed 001).
+"""Strong tracking: multiple suboptimal fading factors on the predicted covariance (Ye and Cui).
 
-Seed 001 (sec. 2) makes its UKF a *strong tracking* filter: a fading matrix
+Ye and Cui (sec. 2) make their UKF a *strong tracking* filter: a fading matrix
 ``Lambda_k = diag(lambda^1 .. lambda^n)`` inflates the predicted covariance whenever the
 innovations are larger than the filter predicts, which forces the residual sequence back
 towards orthogonality (the strong tracking principle). The document's equations were lost in
@@ -77,6 +77,17 @@ MAX_FADING = 1e4
 STF_RHO, STF_BETA, STF_ALPHA = 0, 1, 2
 #: Length of ``stf``: rho, beta and the prior ratios of position, velocity, acceleration.
 STF_LEN = 5
+
+
+def fading_params(forgetting: float, weakening: float,
+                  ratios: tuple[float, float, float]) -> np.ndarray:
+    """The ``stf`` argument of ``kalman_forward`` (layout ``STF_*``): forgetting factor rho,
+    weakening factor beta and the prior ratios alpha of position, velocity, acceleration."""
+    stf = np.empty(STF_LEN)
+    stf[STF_RHO] = forgetting
+    stf[STF_BETA] = weakening
+    stf[STF_ALPHA:STF_LEN] = ratios
+    return stf
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -158,7 +169,7 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
     measurement vector with ``R = I`` after whitening. Rows whose chi-square
     ``eps^T (H P H^T + I)^-1 eps`` exceeds ``gate`` are left out (wild points). Fills ``G``
     (6, 6) with ``H^T H`` and ``b`` (6,) with ``H^T eps`` of the rows kept (the stacked
-    information form; also seed 000's anomaly test, ``estimation.spline_filter``) and returns
+    information form; also Zhou et al.'s anomaly test, ``estimation.spline_filter``) and returns
     ``(eps^T eps, m)`` over them, and whether a kept row fixes the position by itself (three
     position components: a GPS fix, or a radar's range, azimuth and elevation).
     ``h, y6`` (6,), ``H`` (6, n), ``Hw`` (6, 6), ``S`` (6, 6), ``t`` (6, 1) work arrays.

@@ -1,10 +1,10 @@
 """Kalman filter (EKF or UKF update) over a time-ordered batch of measurement rows (compiled).
 
-One forward pass of seed 003 sec. 3.1: prediction (eq. 6-7), gain (eq. 8), Joseph-form
+One forward pass of He 2015 sec. 3.1: prediction (eq. 6-7), gain (eq. 8), Joseph-form
 covariance update (eq. 9), state update (eq. 10), and innovation chi-square gating: a row
 whose normalised innovation squared exceeds the gate is not used and the filter carries the
-prediction (seed 003: "an abnormal measurement is replaced by the prediction"; the chi-square
-test itself is seed 000 sec. 2.2). Gating is per component when it can be: if a row fails,
+prediction (He 2015: "an abnormal measurement is replaced by the prediction"; the chi-square
+test itself is Zhou et al. 2001 sec. 2.2). Gating is per component when it can be: if a row fails,
 the components whose own marginal test fails are dropped and the rest is gated again, so a
 radar range glitch does not throw away good angles and range rate.
 
@@ -23,6 +23,7 @@ needs: the predicted covariance is recomputed there by the same arithmetic.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -75,6 +76,25 @@ NO_FADING = np.zeros(0)
 NO_SPLINE = np.zeros(0)
 
 
+class ForwardOutput(NamedTuple):
+    """:func:`kalman_forward`'s results by name (``ForwardOutput._make(kalman_forward(...))``;
+    the compiled kernel returns the plain tuple, in this order; see its Returns)."""
+
+    xf: np.ndarray
+    Pf: np.ndarray
+    nis: np.ndarray
+    dof: np.ndarray
+    rejected: np.ndarray
+    loglik: float
+    n_resets: int
+    ll_rows: np.ndarray
+    sigma_used: np.ndarray
+    fade: np.ndarray
+    jerk: np.ndarray
+    anomaly: np.ndarray
+    knot: np.ndarray
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def row_workspace(n: int):
     """Work arrays of :func:`row_moments` and :func:`gated_update` for an n-state filter:
@@ -99,7 +119,7 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
     ``x``, ``P`` in place.
 
     Whitening: ``yw = y / sigma``, ``HP = C / sigma`` (rows), ``S = Z / (sigma sigma^T) + I``.
-    Gain ``K^T = S^-1 HP`` (seed 003 eq. 8), ``x += K yw`` (eq. 10). Covariance: the Joseph
+    Gain ``K^T = S^-1 HP`` (He 2015 eq. 8), ``x += K yw`` (eq. 10). Covariance: the Joseph
     form ``(I - K H) P (I - K H)^T + K K^T`` (eq. 9, needs the Jacobian rows ``Hs``) when
     ``joseph``, else ``P - K S K^T = P - K HP`` (unscented update). Returns
     ``(nis, passed, logdet_S)``; ``sdiag[:m]`` receives the marginal whitened innovation
@@ -269,20 +289,21 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             Gauss-Newton step of the iterated extended Kalman smoother), or an array with zero
             rows to linearise at the prediction as the plain EKF does (EKF only).
         method: ``EKF`` (linearised update, Joseph form) or ``UKF`` (unscented update).
-        ukf: (3,) ``[alpha, beta, kappa]`` of the UKF sigma points (seed 001: kappa = 3 - n);
+        ukf: (3,) ``[alpha, beta, kappa]`` of the UKF sigma points (Ye and Cui: kappa = 3 - n);
             ignored by the EKF. (Both are explicit arguments, never defaults: numba's cache
             keys an omitted array default on the object, so it would recompile every process.)
         adapt_window: > 0: improved Sage-Husa adaptive measurement noise over windows of this
             many accepted rows per sensor component (``estimation.adaptive``); 0: off, the
             stated sigmas are used as they are. adapt_mean: also remove the windowed noise
             mean from the innovations.
-        maneuver_norm: > 0: seed 004's constant-norm maneuver, ``||d|| = maneuver_norm``
-            (m/s^2) on the acceleration block as a pseudo-measurement at every epoch after
-            its rows (``estimation.constraint``), linearised at ``x_lin`` when given; 0: off.
-        stf: (5,) strong tracking (seed 001, ``estimation.fading``): forgetting factor rho,
+        maneuver_norm: > 0: the constant-norm maneuver of patent CN109581356A,
+            ``||d|| = maneuver_norm`` (m/s^2) on the acceleration block as a
+            pseudo-measurement at every epoch after its rows (``estimation.constraint``),
+            linearised at ``x_lin`` when given; 0: off.
+        stf: (5,) strong tracking (Ye and Cui, ``estimation.fading``): forgetting factor rho,
             weakening factor beta, prior ratios alpha of position, velocity, acceleration;
             an empty array switches fading off.
-        spl: seed 000's self-adaptive spline filter (``estimation.spline_filter``): the
+        spl: Zhou et al.'s self-adaptive spline filter (``estimation.spline_filter``): the
             anomaly test's chi-square quantiles (``spline_params``); an empty array
             (``NO_SPLINE``) switches it off. On: a piecewise-constant jerk enters every
             prediction as a known input, and an epoch whose stacked innovation chi-square
@@ -369,7 +390,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             dt = epoch_t[k] - epoch_t[k - 1]
             predict_state(x, dt)
             predict_cov(P, AP, dt, q_steps[k])
-            if spline:                                   # seed 000 eqs. 5/6: jerk input
+            if spline:                                   # Zhou et al. 2001 eqs. 5/6: jerk input
                 add_jerk(x, jerk, dt)
                 for a in range(3):
                     jerk_out[k, a] = jerk[a]
@@ -386,7 +407,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                             stf, v_stf, m_epoch, G_stf, P, dt, q_steps[k], fade[k]):
                         apply_fading(P, fade[k], dt, q_steps[k])
         i_epoch = i
-        if spline and i < N and meas_epoch[i] == k:   # seed 000 sec. 2.2: anomaly test
+        if spline and i < N and meas_epoch[i] == k:   # Zhou et al. 2001 sec. 2.2: anomaly test
             chi, m_ep = epoch_chi2(i, meas_epoch, model, z, sigma, s, sv, Qr, x, P, gate,
                                    G_stf, L_spl, h, H, y6, Hw, St, tcol, b_spl)
             anomaly[k, 0] = chi
@@ -425,7 +446,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                          adapt_mean)
                 for a in range(m):
                     sigma_used[i, idx[a]] = sig_row[a]
-            if anomalous:                                # seed 000 2.3.1: adapted R
+            if anomalous:                                # Zhou et al. 2001 2.3.1: adapted R
                 for a in range(m):
                     g = sensor[i] * N_COMPONENTS + idx[a]
                     if rss_n[g] >= SPL_RMS_MIN:
@@ -466,7 +487,7 @@ def kalman_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             ll_rows[i] = loglik - ll_before
             i += 1
         if spline and i_epoch < i:                       # the epoch had rows
-            if anomalous:                                # seed 000 2.3.2: new segment
+            if anomalous:                                # Zhou et al. 2001 2.3.2: new segment
                 for a in range(3):
                     a_knot[a] = x[6 + a]
                 t_knot = epoch_t[k]

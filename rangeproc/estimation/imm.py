@@ -38,6 +38,7 @@ marginals (``estimation.imm_smoother``).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -235,6 +236,23 @@ def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.
         for a in range(n):
             for b in range(n):
                 out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
+
+
+class IMMOutput(NamedTuple):
+    """:func:`imm_forward`'s results by name (``IMMOutput._make(imm_forward(...))``; the
+    compiled kernel returns the plain tuple, in this order; see its Returns)."""
+
+    xf: np.ndarray
+    Pf: np.ndarray
+    xm: np.ndarray
+    Pm: np.ndarray
+    mu: np.ndarray
+    omega: np.ndarray
+    nis: np.ndarray
+    dof: np.ndarray
+    rejected: np.ndarray
+    loglik: float
+    n_resets: int
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -195,7 +195,7 @@ def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np
                 y6: np.ndarray, y: np.ndarray, C: np.ndarray, Z: np.ndarray) -> bool:
     """Innovation moments of the measured components ``idx[:m]`` by the unscented transform.
 
-    Symmetric 2n+1 scaled sigma points (seed 001 sec. 2: ``lambda = alpha^2 (n + kappa) - n``,
+    Symmetric 2n+1 scaled sigma points (Ye and Cui sec. 2: ``lambda = alpha^2 (n + kappa) - n``,
     weights ``W0m = lambda / (n + lambda)``, ``W0c = W0m + 1 - alpha^2 + beta``,
     ``Wi = 1 / (2 (n + lambda))``) with ``ukf = [alpha, beta, kappa]``. Sigma-point azimuths
     are unwrapped around the central point's before averaging. Fills ``y``, ``C`` (cross-

@@ -1,6 +1,6 @@
 """Joint least squares of a trajectory correction and constant sensor calibration terms.
 
-The registration problem of seed 003 (cooperative-target spatial registration), posed as the
+The registration problem of He 2015 (cooperative-target spatial registration), posed as the
 Gauss-Newton step of the batch MAP estimate that an augmented-state smoother (kinematic state
 plus constant calibration states) would give, but solved as a sparse linear system so that
 its cost does not grow with the square of the number of calibration terms:

@@ -84,7 +84,7 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
             noise ``P_pred - F P F^T`` replaces Q in the smoothed covariance (the smoother of
             the model the filter actually ran).
         jerk: None, or (E, 3) the known jerk input (m/s^3) the filter added to the prediction
-            ending at each epoch (seed 000's spline filter, ``estimation.spline_filter``): the
+            ending at each epoch (Zhou et al.'s spline filter, ``estimation.spline_filter``): the
             predicted state is then ``F x + B S`` and the EM statistic takes the input's
             acceleration increment ``S dt`` out (it is not white jerk).
 

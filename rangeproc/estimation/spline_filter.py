@@ -1,6 +1,6 @@
-"""Seed 000's self-adaptive spline filter: the pieces that live inside ``kalman_forward``.
+"""Zhou et al.'s self-adaptive spline filter: the pieces that live inside ``kalman_forward``.
 
-Seed 000 (sec. 1.2) represents the trajectory by a cubic spline: on each knot interval
+Zhou et al. 2001 (sec. 1.2) represent the trajectory by a cubic spline: on each knot interval
 ``[T_{i-1}, T_i]`` the third derivative (jerk) ``S_i`` is constant, and the state equation
 (eqs. 5/6) propagates it as a *known model input*:
 
@@ -119,7 +119,7 @@ def anomaly_inflation(chi: float, m: int, G: np.ndarray, P: np.ndarray) -> float
 
 @njit(cache=True, error_model="numpy", inline="always")
 def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
-    """Seed 000 eqs. 5/6: the known jerk input's share of one step, added to ``F x``."""
+    """Zhou et al. 2001 eqs. 5/6: the known jerk input's share of one step, added to ``F x``."""
     h2 = 0.5 * dt * dt
     h3 = h2 * dt / 3.0
     for a in range(3):
@@ -130,7 +130,7 @@ def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
 
 @njit(cache=True, error_model="numpy", inline="always")
 def segment_jerk(x: np.ndarray, a_knot: np.ndarray, span: float, jerk: np.ndarray) -> None:
-    """Re-estimate the jerk of the segment whose knot was ``span`` seconds ago (seed 000
+    """Re-estimate the jerk of the segment whose knot was ``span`` seconds ago (Zhou et al. 2001
     2.3.2) from the filter's acceleration corrections since then: ``(a_now - a_knot) / span``
     per axis, clamped to ``SPL_MAX_JERK`` (into ``jerk``)."""
     for a in range(3):
@@ -143,8 +143,9 @@ def epoch_chi2(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray
                x: np.ndarray, P: np.ndarray, gate: np.ndarray, G: np.ndarray, L: np.ndarray,
                h: np.ndarray, H: np.ndarray, y6: np.ndarray, Hw: np.ndarray, S: np.ndarray,
                t: np.ndarray, b: np.ndarray) -> tuple[float, int]:
-    """Stacked innovation chi-square of one epoch's rows at the prediction ``x, P`` (seed 000
-    sec. 2.2) and its degrees of freedom ``M``; rows failing their own gate are left out.
+    """Stacked innovation chi-square of one epoch's rows at the prediction ``x, P`` (Zhou et
+    al. 2001 sec. 2.2) and its degrees of freedom ``M``; rows failing their own gate are left
+    out.
 
     ``G, L`` (6, 6), ``h, y6, b`` (6,), ``H`` (6, n), ``Hw, S`` (6, 6), ``t`` (6, 1) work.
     Returns ``(0, 0)`` when no row is kept or the 6x6 algebra fails."""

@@ -1,11 +1,11 @@
 """Batch (post-flight) cubic B-spline trajectory fit: weighted least squares by Gauss-Newton.
 
-Seed 000 (introduction, refs. [1, 3-5]) notes that offline processing of range-rate data is done
-by batch non-linear regression on a spline trajectory with well-placed knots; its sec. 1.2
-(citing [1]) represents the position on ``[T_s, T_e]`` by a cubic spline with interior knots
-``T_1 < ... < T_{N-1}``, the jerk ``S_i`` being constant on each knot interval. This is that batch
-counterpart of the adaptive spline filter, for every sensor kind of
-:mod:`rangeproc.models.measurement` (range rate: seed 000 eqs. 1-2, white noise eq. 4):
+Zhou et al. 2001 (introduction, refs. [1, 3-5]) note that offline processing of range-rate
+data is done by batch non-linear regression on a spline trajectory with well-placed knots; its
+sec. 1.2 (citing [1]) represents the position on ``[T_s, T_e]`` by a cubic spline with interior
+knots ``T_1 < ... < T_{N-1}``, the jerk ``S_i`` being constant on each knot interval. This is
+that batch counterpart of the adaptive spline filter, for every sensor kind of
+:mod:`rangeproc.models.measurement` (range rate: Zhou et al. 2001 eqs. 1-2, white noise eq. 4):
 
 * ``p(t) = sum_j c_j B_j(t)`` (range ENU, m), ``v = sum_j c_j B_j'``, ``a = sum_j c_j B_j''``,
   ``B_j`` the cubic B-splines on the clamped knots ``[T_s]*4 + interior + [T_e]*4``;
@@ -18,7 +18,7 @@ counterpart of the adaptive spline filter, for every sensor kind of
 
 Regularisation (the documented choice): a pseudo-observation ``S_{i+1} - S_i = 0`` on the jerk
 jump at every interior knot, weighted ``1e-10 x`` the mean diagonal of the data normal matrix.
-Like seed 000's filter, which keeps ``S_i`` until an anomaly says otherwise, a gap in the data
+Like Zhou et al.'s filter, which keeps ``S_i`` until an anomaly says otherwise, a gap in the data
 spanning several knot intervals (otherwise singular) is bridged by continuing the jerk: the
 normal matrix stays definite and the gap's covariance comes out large but finite. Where data
 exist the bias is negligible (nanometres in the tests). A problem still singular (e.g. no
@@ -187,7 +187,8 @@ def _factor(abT: np.ndarray) -> np.ndarray:
 
 def _jerk_penalty(knots: np.ndarray) -> sp.csr_array:
     """``R^T R`` (n_coef, n_coef): R maps one axis' coefficients to the jerk jumps
-    ``S_{mu+1} - S_mu`` at the interior knots (seed 000 sec. 1.2: S_i constant per interval)."""
+    ``S_{mu+1} - S_mu`` at the interior knots (Zhou et al. 2001 sec. 1.2: S_i constant per
+    interval)."""
     n_coef = len(knots) - 4
     mids = 0.5 * (knots[3:n_coef] + knots[4:n_coef + 1])         # one per knot interval
     _, b3 = _basis(knots, mids, 4)

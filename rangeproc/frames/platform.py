@@ -9,7 +9,7 @@ azimuth ``az_u`` from +x toward +y (clockwise seen from above), elevation ``el_u
 plane (toward -z); the line-of-sight unit vector in FRD is
 ``[cos el_u cos az_u, cos el_u sin az_u, -sin el_u]``. Stabilised angles are the same
 line of sight in the local NED frame at the platform: azimuth clockwise from north, elevation
-above the local horizontal. Range is invariant. This is the stabilisation of seed 003 eq. (11),
+above the local horizontal. Range is invariant. This is the stabilisation of He 2015 eq. (11),
 done through the rotation (FRD unit vector -> C -> NED -> az/el) rather than the printed,
 garbled closed form.
 """
@@ -205,7 +205,7 @@ def _rotate(
 def deck_to_stabilised(
     az_u: ArrayLike, el_u: ArrayLike, roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Deck angles -> stabilised angles (seed 003 eq. 11; range is unchanged).
+    """Deck angles -> stabilised angles (He 2015 eq. 11; range is unchanged).
 
     Args:
         az_u, el_u: deck azimuth (from +x toward +y) and elevation (above the deck, toward -z),

@@ -9,7 +9,7 @@ Per kind (DATA_CONTRACT sections 1-2):
 * radar / theodolite on a ``platform``: the INS attitude and position are interpolated to each
   row time (attitude by Slerp), the lever arm is applied, and the rotation maps range ENU to the
   deck axes (right, forward, up) so the unstabilised deck angles are modelled directly
-  (seed 003 sec. 3.2 stabilisation, done inside the measurement model; rows outside the INS
+  (He 2015 sec. 3.2 stabilisation, done inside the measurement model; rows outside the INS
   span or in an INS gap are dropped and counted).
 * gps: CARTESIAN rows: position converted to range ENU then expressed in the receiver's local
   ENU axes (where the noise is diagonal: horizontal, horizontal, vertical), velocity as given

@@ -2,7 +2,7 @@
 
 A target unobserved for longer than ``max_gap`` is estimated as separate spans (each with
 its own start; ``fusion.centralised``). When the same object is seen again (a relay between
-sensors, or the same sensor after a long outage), seed 003 fills the discontinuity by a
+sensors, or the same sensor after a long outage), He 2015 fills the discontinuity by a
 least-squares fit of the track on both sides. Here that fit is the weighted least-squares
 state of the constant-acceleration motion given both ends: at an epoch t inside the gap
 [t_a, t_b] the forward prediction from the last state of the earlier span,

@@ -37,7 +37,7 @@ import numpy as np
 from rangeproc.editing.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
-from rangeproc.estimation.forward import EKF
+from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.tuning import (
@@ -64,6 +64,7 @@ from rangeproc.fusion.registration import (
     register,
 )
 from rangeproc.quantiles import chi2_ppf
+from rangeproc.settings import ProcessingSettings
 
 log = logging.getLogger(__name__)
 
@@ -75,73 +76,99 @@ N_PACKED_NODE = 45
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
-class EstimatorSettings:
-    """Settings of the centralised estimator.
+class FilterFamily:
+    """Which forward filter a pass runs: the estimator's reading of ``processing.filter``
+    (:func:`filter_family`). A pass may switch parts off (the first pass runs neither the IMM
+    nor strong tracking; the lead-in runs the IMM alone).
 
-    gate_probability: chi-square gate probability per row (dof = measured components).
-    noise_passes: refinement passes after the first (re-linearise at the smoothed track and,
-        with adapt_noise, re-estimate noise and process noise).
-    adapt_noise: estimate noise from the data (difference pre-edit + residual passes).
-    process_noise: white-jerk PSD q (m^2/s^5), held constant; None = estimate it: maximum
-        likelihood over ``q_grid`` first, then local EM updates over ``q_window`` seconds.
-    q_grid: candidate q values for the likelihood search; q_search_rows: at most this many
-        rows (evenly spread) in it, or ``tuning.MIN_SEARCH_RATE_HZ`` per second of the span
-        when that is more.
-    q_window: window (s) of the local process-noise estimate.
-    reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
-    method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``); ukf: the UKF's
-        ``(alpha, beta, kappa)``, kappa = 3 - n per seed 001.
-    max_gap: longest time (s) without any row inside one span (module docstring, stage 0).
-    adapt_window: > 0: improved Sage-Husa adaptive measurement noise in the filter over windows
-        of this many rows (``estimation.adaptive``; ``filter = "sage-husa"``); adapt_mean: also
-        estimate and remove the noise mean.
-    askf: seed 004's augmented-state filter with the maneuver-norm constraint on the
-        acceleration block, imposed in the refinement passes (linearised at the previous
-        smoothed track; the first pass is unconstrained, ``noise_passes = 0`` leaves it so):
-        ``maneuver_norm`` (m/s^2) when given, else estimated from the first pass's smoothed
-        accelerations (``estimation.constraint.estimate_norm``); without a usable norm the
-        unconstrained ASKF (the constant-acceleration EKF).
+    method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``).
+    sage_husa: improved Sage-Husa adaptive measurement noise in the filter over windows of
+        ``processing.sage_husa_window`` rows (``estimation.adaptive``), removing the noise
+        mean too with ``processing.sage_husa_mean``.
+    askf: the augmented-state filter of patent CN109581356A with the maneuver-norm constraint
+        on the acceleration block, imposed in the refinement passes (linearised at the
+        previous smoothed track; the first pass is unconstrained, ``noise_passes = 0`` leaves
+        it so): ``processing.maneuver_norm`` (m/s^2) when given, else estimated from the first
+        pass's smoothed accelerations (``estimation.constraint.estimate_norm``); without a
+        usable norm the unconstrained ASKF (the constant-acceleration EKF).
+    strong_tracking: Ye and Cui's strong tracking (``filter = "stukf"``,
+        ``estimation.fading``) with ``processing.stukf_forgetting``, ``stukf_weakening`` and
+        ``stukf_ratios``.
     imm_models: model codes of the IMM (``estimation.imm``: CV, CA, CT); empty = no IMM. Its
         first pass is the EKF; the refinement passes run the IMM (EKF updates) from that
         pass's smoothed first state (``imm_start``) with its process noise (the models carry
         the dynamics the local EM would otherwise follow); ``noise_passes = 0`` leaves the
-        EKF. imm_sojourn: mean time (s) in a model before a switch.
-    stf: seed 001's strong tracking (``filter = "stukf"``): ``(rho, beta, alpha_position,
-        alpha_velocity, alpha_acceleration)`` of ``estimation.fading``; empty = off.
-    spline: seed 000's self-adaptive spline filter (``filter = "spline"``,
-        ``estimation.spline_filter``): jerk input per segment, anomaly test, adapted R and
-        jerk at anomalies, then the batch cubic B-spline fit (``estimation.spline_fit``) on
-        the anomaly knots plus regular knots replaces the smoothed track
+        EKF. ``processing.imm_sojourn``: mean time (s) in a model before a switch.
+    spline: Zhou et al.'s self-adaptive spline filter (``filter = "spline"``,
+        ``estimation.spline_filter``): jerk input per segment, anomaly test (probability
+        ``processing.spline_anomaly_probability``), adapted R and jerk at anomalies, then the
+        batch cubic B-spline fit (``estimation.spline_fit``) on the anomaly knots plus regular
+        knots (``processing.spline_knot_spacing``) replaces the smoothed track
         (``fusion.spline_refine``).
-    spline_probability: probability ``1 - alpha`` of the anomaly test's chi-square quantile.
-    spline_knot_spacing: regular knot spacing (s) of the batch fit; None = from the data's
-        dynamics (``fusion.spline_refine.knot_times``).
     """
 
-    gate_probability: float = 0.9999
-    noise_passes: int = 2
-    adapt_noise: bool = True
-    process_noise: float | None = None
+    method: int = EKF
+    sage_husa: bool = False
+    askf: bool = False
+    strong_tracking: bool = False
+    imm_models: tuple[int, ...] = ()
+    spline: bool = False
+
+
+def filter_family(p: ProcessingSettings) -> FilterFamily:
+    """The forward filter that ``p.filter`` names (``settings.FILTERS``)."""
+    f = p.filter
+    return FilterFamily(method=UKF if f in ("ukf", "stukf") else EKF, sage_husa=f == "sage-husa",
+                        askf=f == "askf", strong_tracking=f == "stukf",
+                        imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
+                        if f == "imm" else (), spline=f == "spline")
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class EstimatorSettings:
+    """Settings of the centralised estimator.
+
+    processing: the config's ``[processing]`` section (``settings.ProcessingSettings``, where
+        each key is declared): the estimator reads its fields by name (``gate_probability``,
+        ``noise_passes``, ``adapt_noise``, ``process_noise``, ``max_gap``, the filter's own).
+    family_override: the forward filter of the passes when not the one ``processing.filter``
+        names (the first pass, the lead-in); :attr:`family` is the one in force.
+    q_grid: candidate q values for the likelihood search of ``process_noise`` when not given
+        (maximum likelihood over ``q_grid`` first, then local EM updates over ``q_window``
+        seconds); q_search_rows: at most this many rows (evenly spread) in it, or
+        ``tuning.MIN_SEARCH_RATE_HZ`` per second of the span when that is more.
+    q_window: window (s) of the local process-noise estimate.
+    reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
+    ukf: the UKF's ``(alpha, beta, kappa)``, kappa = 3 - n per Ye and Cui.
+    calibration: what the registration may estimate per sensor index (``fusion.registration``;
+        empty: no calibration); refraction: the refraction removed from the rows
+        (``fusion.refraction_rows``; None: none).
+    """
+
+    processing: ProcessingSettings = ProcessingSettings()
+    family_override: FilterFamily | None = None
     q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 5, 8))
     q_window: float = 2.0
     q_search_rows: int = MAX_SEARCH_ROWS
     reset_after: int = 50
     reset_inflation: float = 100.0
-    method: int = EKF
     ukf: tuple[float, float, float] = (1.0, 2.0, 3.0 - 9)
-    max_gap: float = 60.0
-    adapt_window: int = 0
-    adapt_mean: bool = False
-    askf: bool = False
-    maneuver_norm: float | None = None
-    stf: tuple[float, ...] = ()
-    imm_models: tuple[int, ...] = ()
-    imm_sojourn: float = 10.0
-    spline: bool = False
-    spline_probability: float = 0.999
-    spline_knot_spacing: float | None = None
     calibration: tuple[SensorCalibration | None, ...] = ()
     refraction: RefractionSettings | None = None
+
+    @property
+    def family(self) -> FilterFamily:
+        """The forward filter of the passes: ``family_override``, else
+        ``processing.filter``'s."""
+        return self.family_override or filter_family(self.processing)
+
+    def with_processing(self, **changes: object) -> EstimatorSettings:
+        """These settings with ``[processing]`` values changed (``ProcessingSettings`` fields)."""
+        return replace(self, processing=replace(self.processing, **changes))
+
+    def with_family(self, **changes: object) -> EstimatorSettings:
+        """These settings with parts of the forward filter changed (``FilterFamily`` fields)."""
+        return replace(self, family_override=replace(self.family, **changes))
 
 
 @dataclass(frozen=True, slots=True)
@@ -267,7 +294,7 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     Raises:
         NoPositionFix: no span can be started (the first span's reason).
     """
-    slices = span_slices(batch.t, settings.max_gap)
+    slices = span_slices(batch.t, settings.processing.max_gap)
     if prior is not None:
         dist = [max(batch.t[sl.start] - prior.t, prior.t - batch.t[sl.stop - 1], 0.0)
                 for sl in slices]
@@ -302,8 +329,9 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     if not done:
         assert first_error is not None
         raise first_error
-    if int(ticked) < 1 + settings.noise_passes:
-        tick(1 + settings.noise_passes - int(ticked), "")
+    n_passes = 1 + settings.processing.noise_passes
+    if int(ticked) < n_passes:
+        tick(n_passes - int(ticked), "")
     return _concat(done, unstarted)
 
 
@@ -364,8 +392,9 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     if grid_t is None:
         grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)
     epoch_t, meas_epoch, grid = _epochs(batch.t, grid_t)
-    gate = gate_thresholds(settings.gate_probability)
-    if settings.adapt_noise:
+    p, family = settings.processing, settings.family
+    gate = gate_thresholds(p.gate_probability)
+    if p.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
     started = False                   # from the given prior (it then enters the spline fit)
     try:
@@ -377,8 +406,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             raise
         x0, P0 = prior_at(prior, float(epoch_t[0]))
         started = True
-    if settings.process_noise is not None:
-        q = np.full(len(epoch_t), settings.process_noise)
+    if p.process_noise is not None:
+        q = np.full(len(epoch_t), p.process_noise)
     else:
         q0, q = start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
                                     settings.reset_after, settings.reset_inflation,
@@ -389,23 +418,23 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     x_lin = np.empty((0, x0.shape[0]))
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
-    rho = settings.maneuver_norm if settings.askf else None
+    rho = p.maneuver_norm if family.askf else None
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
     first_pass = partial(run_pass, batch, epoch_t, meas_epoch, x0, P0, q, gate,
-                         replace(settings, imm_models=(), stf=()), x_lin)
+                         settings.with_family(imm_models=(), strong_tracking=False), x_lin)
     first = first_pass()
-    if settings.askf and rho is None:
+    if family.askf and rho is None:
         rho = estimate_norm(first.xs[grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
-    start = imm_start(first, x0, P0) if settings.imm_models else (x0, P0)
+    start = imm_start(first, x0, P0) if family.imm_models else (x0, P0)
     # the askf check refines the first pass once more, unconstrained; otherwise the first
     # pass's arrays (track, covariances, residuals: most of a span's memory) are let go as
     # soon as the refinement has moved on from them
-    again = [(first, first_pass)] if rho is not None and settings.noise_passes > 0 else []
+    again = [(first, first_pass)] if rho is not None and p.noise_passes > 0 else []
     box = [(first, first_pass)]
     del first
 
@@ -416,8 +445,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         (out, redo), b, qq, noise, cal = box.pop(), batch, q, {}, None
         q_used = q
         why = np.zeros(batch.z.shape, dtype=np.int8)
-        for p in range(settings.noise_passes):
-            if settings.refraction is not None and p == 0:   # geometry of the first pass
+        for k in range(p.noise_passes):
+            if settings.refraction is not None and k == 0:   # geometry of the first pass
                 b = refraction_corrections(b, out.xs, meas_epoch, settings.refraction)
                 corrected = np.flatnonzero(np.asarray(settings.refraction.surface_n) > 0)
                 out = out._replace(res=corrected_residuals(b, corrected, out, meas_epoch))
@@ -428,13 +457,13 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                     b = apply_increments(b, cal.terms, dc, rate)
                     moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
                     out = out._replace(res=corrected_residuals(b, moved, out, meas_epoch))
-            if settings.adapt_noise:
+            if p.adapt_noise:
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
-            if settings.process_noise is None and out.em is not None:
+            if p.process_noise is None and out.em is not None:
                 qq = local_process_noise(epoch_t, out.em, window=settings.q_window,
                                          ceiling=max(settings.q_grid))
-            log.info("pass %d: median q = %.3g m^2/s^5", p + 2, float(np.median(qq)))
+            log.info("pass %d: median q = %.3g m^2/s^5", k + 2, float(np.median(qq)))
             # the pass refined here is let go before the next runs (its covariances and
             # residuals: 0.5 GB of the 2M-row sortie's peak); should the next fail, it is
             # done again from its inputs (the same values), its residuals taken at the rows
@@ -449,10 +478,10 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             except NumericalError as exc:       # the pass before stands (its track is sound)
                 failed = str(exc)
             q_used = qq
-            tick(1, f"pass {p + 2}")
+            tick(1, f"pass {k + 2}")
             if failed or rho is None and out.resets > resets_before:   # it lost the object:
                 # keep the pass before (a constrained pass is judged by constraint_agrees)
-                log.warning("pass %d: %s; the pass it refines is kept", p + 2, failed or (
+                log.warning("pass %d: %s; the pass it refines is kept", k + 2, failed or (
                     f"the divergence guard fired {out.resets} times against "
                     f"{resets_before} in the pass it refines"))
                 out = None
@@ -460,8 +489,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 out = out._replace(res=corrected_residuals(
                     b, range(len(b.sensor_ids)), out, meas_epoch))
                 q_used = q_before
-                if p + 1 < settings.noise_passes:
-                    tick(settings.noise_passes - p - 1, "")
+                if k + 1 < p.noise_passes:
+                    tick(p.noise_passes - k - 1, "")
                 break
         return out, q_used, noise, why, cal
 
@@ -471,18 +500,18 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         if not constraint_agrees(out, free[0], rho):
             rho, (out, q, noise, why, cal) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
-    if settings.spline:          # seed 000's post-flight counterpart: the batch spline fit
+    if family.spline:            # Zhou et al.'s post-flight counterpart: the batch spline fit
         from rangeproc.fusion.spline_refine import spline_refine   # scipy.interpolate: 0.1 s
         xs, Ps, res, hph = spline_refine(
             out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
-            settings.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
+            p.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
     if cal is not None:         # the calibration's uncertainty is the trajectory's too
         Ps[grid, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t[grid])
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
                         res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,
                         maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
-                        model_names=tuple(MODEL_NAMES[c] for c in settings.imm_models),
+                        model_names=tuple(MODEL_NAMES[c] for c in family.imm_models),
                         calibration=(cal,) if cal is not None else ())
 
 
@@ -515,13 +544,14 @@ def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,
         early = apply_increments(early, cal.terms, cal.applied, np.zeros((lead, 4)))
     lead_grid = grid_t[grid_t < t_fix]
     backwards = fuse_span(time_reversed(early), rate_hz,
-                          replace(settings, calibration=(), askf=False, stf=(), spline=False,
-                                  adapt_window=0,
-                                  imm_models=settings.imm_models or LEAD_IN_MODELS),
+                          replace(settings.with_family(
+                              askf=False, strong_tracking=False, spline=False, sage_husa=False,
+                              imm_models=settings.family.imm_models or LEAD_IN_MODELS),
+                              calibration=()),
                           prior=prior, grid_t=np.ascontiguousarray(-lead_grid[::-1]),
                           from_prior=True)
     backwards = forward_in_time(backwards)
-    if not settings.imm_models:               # the rest has no model probabilities
+    if not settings.family.imm_models:        # the rest has no model probabilities
         backwards = replace(backwards, model_prob=None, model_names=())
     both = _concat([backwards, rest], {})
     return replace(both, spans=((float(batch.t[0]), float(batch.t[-1])),),

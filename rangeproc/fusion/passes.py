@@ -15,8 +15,9 @@ from typing import NamedTuple
 import numpy as np
 
 from rangeproc.errors import NumericalError
-from rangeproc.estimation.forward import NO_SPLINE, kalman_forward
-from rangeproc.estimation.imm import imm_forward
+from rangeproc.estimation.fading import fading_params
+from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, ForwardOutput, kalman_forward
+from rangeproc.estimation.imm import IMMOutput, imm_forward
 from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
@@ -63,34 +64,54 @@ class PassResult(NamedTuple):
     knots: np.ndarray | None = None
 
 
+class GateResult(NamedTuple):
+    """A forward filter's per-row gate results: ``nis``, ``dof``, ``rejected`` bit masks (N,)
+    and the divergence guard's ``n_resets`` (of ``ForwardOutput`` or ``IMMOutput``)."""
+
+    nis: np.ndarray
+    dof: np.ndarray
+    rejected: np.ndarray
+    n_resets: int
+
+
+def _gates(fwd: ForwardOutput | IMMOutput) -> GateResult:
+    return GateResult(fwd.nis, fwd.dof, fwd.rejected, fwd.n_resets)
+
+
 def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
              maneuver_norm: float = 0.0) -> PassResult:
-    """One filter + smoother pass with settings ``st`` (``EstimatorSettings``); returns the
-    smoothed track, gate results and residuals."""
+    """One filter + smoother pass with settings ``st`` (``EstimatorSettings``: its forward
+    filter ``st.family``, the ``[processing]`` values by name); returns the smoothed track,
+    gate results and residuals."""
+    family, p = st.family, st.processing
     model_prob = None
     try:
-        if st.imm_models:
-            xs, Ps, model_prob, nis, dof, rej, resets = _run_imm(batch, epoch_t, meas_epoch,
-                                                                 x0, P0, q, gate, st, x_lin)
+        if family.imm_models:
+            gates, xs, Ps, model_prob = _run_imm(batch, epoch_t, meas_epoch, x0, P0, q, gate,
+                                                 st, x_lin)
             em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
         else:
-            xf, Pf, nis, dof, rej, _, resets, _, sigma_used, fade, jerk, _, knot = \
-                kalman_forward(
-                    epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-                    batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
-                    st.reset_inflation, x_lin, st.method, np.asarray(st.ukf, dtype=np.float64),
-                    st.adapt_window, st.adapt_mean, maneuver_norm,
-                    np.asarray(st.stf, dtype=np.float64),
-                    spline_params(st.spline_probability) if st.spline else NO_SPLINE)
+            fwd = ForwardOutput._make(kalman_forward(
+                epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
+                batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation,
+                x_lin, method=family.method, ukf=np.asarray(st.ukf, dtype=np.float64),
+                adapt_window=p.sage_husa_window if family.sage_husa else 0,
+                adapt_mean=p.sage_husa_mean, maneuver_norm=maneuver_norm,
+                stf=fading_params(p.stukf_forgetting, p.stukf_weakening, p.stukf_ratios)
+                if family.strong_tracking else NO_FADING,
+                spl=spline_params(p.spline_anomaly_probability) if family.spline
+                else NO_SPLINE))
+            gates, sigma_used, knot, fade = _gates(fwd), fwd.sigma_used, fwd.knot, fwd.fade
             if knot.shape[0]:
                 log.info("spline filter: %d anomaly knots", int(knot.sum()))
             elif fade.shape[0]:
                 faded = fade.max(axis=1) > 1.0
                 log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
                          int(faded.sum()), len(faded), float(fade.max()))
-            xs, Ps, em = rts_smooth(epoch_t, xf, Pf, q, True, True,   # in place over xf, Pf
+            xs, Ps, em = rts_smooth(epoch_t, fwd.xf, fwd.Pf, q, True, True,  # in place
                                     fade if fade.shape[0] else None,
-                                    jerk if jerk.shape[0] else None)
+                                    fwd.jerk if fwd.jerk.shape[0] else None)
+            del fwd                                  # its likelihood rows are not needed
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     if not np.isfinite(xs).all():
@@ -99,8 +120,9 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
                                   batch.Qr, xs, Ps)
     if sigma_used.shape[0]:                  # adapted in the filter: report what it used
         batch = batch.with_sigma(np.where(np.isfinite(sigma_used), sigma_used, batch.sigma))
-    return PassResult(xs, Ps, em, nis, dof, component_use(batch.z, rej), res, hph, resets,
-                      batch, model_prob, epoch_t[knot] if knot.shape[0] else epoch_t[:0])
+    return PassResult(xs, Ps, em, gates.nis, gates.dof, component_use(batch.z, gates.rejected),
+                      res, hph, gates.n_resets, batch, model_prob,
+                      epoch_t[knot] if knot.shape[0] else epoch_t[:0])
 
 
 def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,
@@ -135,7 +157,7 @@ def imm_start(first: PassResult, x0: np.ndarray, P0: np.ndarray
     From a wide acceleration prior every model is still learning the motion for seconds and
     the simplest wins on Occam's razor (a 3 g thrust looks like constant velocity to the
     likelihoods); Kim's smoother, which does not re-weigh models with smoothed states, then
-    extrapolated the start hundreds of metres off (seed 004's experiment). Told the
+    extrapolated the start hundreds of metres off (the experiment of patent CN109581356A). Told the
     acceleration, the right model explains the data from the first fix. Position and
     velocity keep the honest prior: where they are weakly observed (range rates alone) a
     smoothed start counted twice made the result overconfident.
@@ -151,15 +173,17 @@ def imm_start(first: PassResult, x0: np.ndarray, P0: np.ndarray
     return x, P
 
 
-def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin):
-    """The IMM filter and Kim's smoother (``estimation.imm``)."""
-    codes = np.asarray(st.imm_models, dtype=np.int64)
-    lam = imm_generator(len(codes), st.imm_sojourn)
+def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin
+             ) -> tuple[GateResult, np.ndarray, np.ndarray, np.ndarray]:
+    """The IMM filter and Kim's smoother (``estimation.imm``): the filter's gate results,
+    the smoothed states, packed covariances and model probabilities."""
+    codes = np.asarray(st.family.imm_models, dtype=np.int64)
+    lam = imm_generator(len(codes), st.processing.imm_sojourn)
 
-    out = imm_forward(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
-                      batch.sv, batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after,
-                      st.reset_inflation, x_lin, codes, lam,
-                      np.full(len(codes), 1.0 / len(codes)))
-    _, _, xm, Pm, mu, omega, nis, dof, rej, _, resets = out
-    xs, Ps, mus = imm_smooth(epoch_t, xm, Pm, mu, omega, q, codes, lam, IMM_PRUNE)
-    return xs, Ps, mus, nis, dof, rej, resets
+    fwd = IMMOutput._make(imm_forward(
+        epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv, batch.Qr,
+        batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin, codes, lam,
+        np.full(len(codes), 1.0 / len(codes))))
+    xs, Ps, mus = imm_smooth(epoch_t, fwd.xm, fwd.Pm, fwd.mu, fwd.omega, q, codes, lam,
+                             IMM_PRUNE)
+    return _gates(fwd), xs, Ps, mus

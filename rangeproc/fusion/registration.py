@@ -1,5 +1,5 @@
 """Registration: every sensor's biases, latency and mount misalignment, with the target's GPS
-(and MISTRAM) as the absolute reference (seed 003 sec. 3.2, cooperative-target registration).
+(and MISTRAM) as the absolute reference (He 2015 sec. 3.2, cooperative-target registration).
 
 Between the smoother's passes (``fusion.centralised``), :func:`register` solves the joint
 least squares of a correction to the smoothed track and the calibration terms of all sensors

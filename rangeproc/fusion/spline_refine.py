@@ -1,7 +1,7 @@
 """Post-flight refinement of ``filter = "spline"``: the batch cubic B-spline fit on the filter's
-anomaly knots plus regular knots replaces the smoothed track (seed 000: offline processing by
-batch estimation on a spline trajectory is the high-accuracy counterpart of its real-time
-filter; ``estimation.spline_fit``).
+anomaly knots plus regular knots replaces the smoothed track (Zhou et al. 2001: offline
+processing by batch estimation on a spline trajectory is the high-accuracy counterpart of its
+real-time filter; ``estimation.spline_fit``).
 
 Knots: the anomaly times of the final pass (where the filter saw the jerk change) plus a
 regular grid whose spacing follows the data's dynamics unless configured

@@ -1,9 +1,11 @@
-"""Exports of a run's fused trajectories for tools outside Python (issue 11, part 3).
+"""Exports of a run's fused trajectories for tools outside Python (KML, CZML, CSV, ACMI).
 
 ``export_run(out_dir, formats)`` reads ``OUT_DIR/fused.parquet`` and writes, beside it,
 ``fused.kml`` (Google Earth: a time-stamped ``gx:Track`` per object, ``interchange.kml``),
-``fused.czml`` (Cesium: time-tagged positions with a 3-sigma ellipsoid, ``interchange.czml``)
-and ``fused.csv`` (spreadsheets: the table with a UTC column, ``interchange.table``). Times
+``fused.czml`` (Cesium: time-tagged positions with a 3-sigma ellipsoid, ``interchange.czml``),
+``fused.csv`` (spreadsheets: the table with a UTC column, ``interchange.table``) and
+``fused.acmi`` / ``fused.zip.acmi`` (Tacview: each object's time-tagged position and the
+sensors' sites, text or zipped, ``interchange.acmi``). Times
 become calendar UTC through the epoch of the range's time scale
 (``interchange.trajectories``): the one given (``--epoch``, ``[output] epoch``, or the one a
 run's ``summary.json`` recorded from ``[output] epoch``), else the Unix epoch: silently for
@@ -16,6 +18,7 @@ import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -24,25 +27,35 @@ from rangeproc.errors import DataError
 from rangeproc.interchange.trajectories import object_trajectories, read_fused, to_utc
 from rangeproc.timescale import BASIS_EPOCH, UNIX_EPOCH, on_unix_scale, parse_epoch
 
+if TYPE_CHECKING:
+    from rangeproc.config import Config
+
 log = logging.getLogger(__name__)
 
+#: Export format -> the file it is written to (in the run's output folder).
+FILES = {"kml": "fused.kml", "czml": "fused.czml", "csv": "fused.csv", "acmi": "fused.acmi",
+         "acmi-zip": "fused.zip.acmi"}
 #: Export formats, in the order they are written.
-FORMATS = ("kml", "czml", "csv")
+FORMATS = tuple(FILES)
+#: What ``rangeproc export`` writes without ``--format``: each format once (ACMI as text).
+DEFAULT_FORMATS = ("kml", "czml", "csv", "acmi")
 #: The files they are written to (in the run's output folder).
-EXPORT_FILES = tuple(f"fused.{fmt}" for fmt in FORMATS)
+EXPORT_FILES = tuple(FILES.values())
 
 
-def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
+def export_run(out_dir: Path, formats: Sequence[str] = DEFAULT_FORMATS, *,
                epoch: str | np.datetime64 | None = None, interval_s: float = 0.0,
                dest: Path | None = None, title: str | None = None,
-               table: pd.DataFrame | None = None) -> list[Path]:
-    """Write ``fused.<format>`` for each of ``formats`` into ``dest`` (default ``out_dir``).
+               table: pd.DataFrame | None = None, config: Config | None = None) -> list[Path]:
+    """Write each of ``formats``' file (:data:`FILES`) into ``dest`` (default ``out_dir``).
 
     epoch: the UTC instant of time 0 of the range's time scale (ISO 8601 with an offset, or a
     ``datetime64``; None: :func:`calendar_epoch` decides, warning when the times' calendar
-    date is unknown); interval_s: at most one epoch per this many seconds per object in KML
-    and CZML (0: every epoch; the CSV always holds every row); table: the fused table when the
-    caller has it (a run that has just written it), else ``OUT_DIR/fused.parquet`` is read.
+    date is unknown); interval_s: at most one epoch per this many seconds per object in KML,
+    CZML and ACMI (0: every epoch; the CSV always holds every row); table: the fused table when
+    the caller has it (a run that has just written it), else ``OUT_DIR/fused.parquet`` is
+    read; config: the run's config, for the sensors' sites in ACMI (None: the config that
+    ``OUT_DIR/summary.json`` names, :func:`interchange.acmi.run_sites`).
     Returns the written paths. Raises DataError (exit 2) naming the file or option at fault.
     """
     unknown = [f for f in formats if f not in FORMATS]
@@ -63,6 +76,7 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
     objects = object_trajectories(table, utc, interval_s)
     title = title or f"rangeproc {out_dir.resolve().name}"
     written = []
+    acmi = None                                   # the ACMI text, made once for both forms
     for fmt in dict.fromkeys(formats):            # each once, in the order given
         if fmt == "kml":
             from rangeproc.interchange.kml import write_kml
@@ -70,9 +84,15 @@ def export_run(out_dir: Path, formats: Sequence[str] = FORMATS, *,
         elif fmt == "czml":
             from rangeproc.interchange.czml import write_czml
             written.append(write_czml(objects, dest / "fused.czml", title))
-        else:
+        elif fmt == "csv":
             from rangeproc.interchange.table import write_csv
             written.append(write_csv(table, utc, dest / "fused.csv"))
+        else:
+            from rangeproc.interchange.acmi import acmi_text, config_sites, run_sites, write_acmi
+            if acmi is None:
+                sites = run_sites(out_dir) if config is None else config_sites(config)
+                acmi = acmi_text(objects, sites, title)
+            written.append(write_acmi(acmi, dest / FILES[fmt], zipped=fmt == "acmi-zip"))
     return written
 
 

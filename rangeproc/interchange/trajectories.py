@@ -28,7 +28,7 @@ class ObjectTrajectory:
     time: (N,) s on the range time scale; utc: (N,) ``datetime64[ns]`` UTC; lat, lon: (N,)
     WGS-84 degrees; height: (N,) m above the ellipsoid; sigma_enu: (N, 3) 1-sigma position
     uncertainty east, north, up (m); bridged: (N,) bool, epochs inside a gap with no data
-    (seed 003's least-squares bridge; all False when the run did not mark any).
+    (He 2015's least-squares bridge; all False when the run did not mark any).
     """
 
     id: str

@@ -3,7 +3,9 @@
 Each writer writes a hidden temporary file in the destination folder, flushes it to disk and
 renames it onto the final name with :func:`os.replace` (atomic on POSIX and Windows when both
 names are on one file system). On any exception the temporary file is removed and the previous
-file of that name, if any, is left untouched.
+file of that name, if any, is left untouched. An operating-system failure to write (a full disk,
+a read-only or not writable folder: :func:`rangeproc.errors.write_failure`) is raised as
+:class:`~rangeproc.errors.OutputError` naming the final path and the cause.
 """
 from __future__ import annotations
 
@@ -23,6 +25,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from rangeproc.errors import write_failure
+
 
 @contextlib.contextmanager
 def atomic_path(final: str | Path) -> Iterator[Path]:
@@ -30,18 +34,21 @@ def atomic_path(final: str | Path) -> Iterator[Path]:
 
     The caller writes the temporary path (it must exist when the block ends). The parent folder
     is created if missing. On an exception inside the block the temporary file is removed and
-    the exception propagates.
+    the exception propagates; an operating-system failure to write
+    (:func:`~rangeproc.errors.write_failure`) as an ``OutputError`` naming ``final``.
     """
     final = Path(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.parent / f".{final.name}.{uuid.uuid4().hex[:12]}.tmp"
     try:
+        final.parent.mkdir(parents=True, exist_ok=True)
         yield tmp
         _fsync(tmp)
         os.replace(tmp, final)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
             tmp.unlink()
+        if (failure := write_failure(exc, final)) is not None:
+            raise failure from exc
         raise
 
 

@@ -10,7 +10,7 @@ Every measurement row carries its own geometry, so two models cover all five sen
   slant range, azimuth, elevation, range rate, from ``d = Qr (p - s)``, ``w = Qr (v - sv)``:
   ``R = |d|``, ``A = atan2(d_0, d_1)`` (clockwise from the local "north" axis d_1),
   ``E = atan2(d_2, hypot(d_0, d_1))``, ``Rdot = d . w / R``
-  (seed 003 eq. 3-4 for R, A, E; seed 000 eq. 2 for the range rate
+  (He 2015 eq. 3-4 for R, A, E; Zhou et al. 2001 eq. 2 for the range rate
   ``Rdot^j = alpha^j(t)^T X_v / R^j``).
   ``Qr`` maps range ENU into the sensor's local (east-like, north-like, up) axes: the site's
   ENU for a fixed site; for a deck-mounted sensor ``P C^T`` with C body->range-ENU and

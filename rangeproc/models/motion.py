@@ -1,6 +1,6 @@
 """Motion models: discrete transition and process noise over the state vector.
 
-The kinematic state is the 9-state constant-acceleration (CA) model of seed 003 eq. (1):
+The kinematic state is the 9-state constant-acceleration (CA) model of He 2015 eq. (1):
 ``x = [e, n, u, ve, vn, vu, ae, an, au]`` in the range ENU frame (m, m/s, m/s^2), driven by
 white jerk with power spectral density ``q`` (m^2/s^5) per axis. States beyond the first nine
 (sensor biases, latencies in later work) are random constants: identity transition, zero

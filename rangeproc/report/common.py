@@ -313,11 +313,11 @@ def save_figure(fig: Figure, path: Path) -> Path:
     """
     path = Path(path)
     limit_ticks(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="rgba", dpi=DPI)  # raw RGBA pixels: no PNG encode/decode
-    width, height = fig.canvas.get_width_height(physical=True)
-    rgba = np.frombuffer(buf.getbuffer(), dtype=np.uint8).reshape(height, width, 4)
-    with atomic_path(path) as tmp:
+    with atomic_path(path) as tmp:            # a failure in either step names ``path``
+        buf = io.BytesIO()
+        fig.savefig(buf, format="rgba", dpi=DPI)  # raw RGBA pixels: no PNG encode/decode
+        width, height = fig.canvas.get_width_height(physical=True)
+        rgba = np.frombuffer(buf.getbuffer(), dtype=np.uint8).reshape(height, width, 4)
         write_palette_png(rgba, tmp)
     return path
 

@@ -1,4 +1,4 @@
-"""``report/index.html``: the run on one self-contained page (issue 11, part 4).
+"""``report/index.html``: the run on one self-contained page.
 
 The page holds the summary tables and every report figure. Figures are embedded as base64
 ``data:`` PNGs, the style sheet is inline and there is no script, so the file opens from a

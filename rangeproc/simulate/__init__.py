@@ -8,6 +8,7 @@ from rangeproc.simulate.scenario import (
     FAULT_PRESETS,
     FAULTS,
     ISSUE8_FAULTS,
+    REGISTRATION_FAULTS,
     draw_scenario,
     resolve_faults,
     simulate_scenario,
@@ -15,5 +16,6 @@ from rangeproc.simulate.scenario import (
 from rangeproc.simulate.multi import KINDS as MULTI_KINDS
 from rangeproc.simulate.multi import draw_multi, simulate_multi
 
-__all__ = ["FAULTS", "FAULT_PRESETS", "ISSUE8_FAULTS", "MULTI_KINDS", "draw_multi",
-           "draw_scenario", "resolve_faults", "simulate_multi", "simulate_scenario"]
+__all__ = ["FAULTS", "FAULT_PRESETS", "ISSUE8_FAULTS", "MULTI_KINDS", "REGISTRATION_FAULTS",
+           "draw_multi", "draw_scenario", "resolve_faults", "simulate_multi",
+           "simulate_scenario"]      # ISSUE8_FAULTS: REGISTRATION_FAULTS's former name

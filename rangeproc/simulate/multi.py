@@ -19,7 +19,7 @@ file PF1 merging two rotating radars at different sites (a scan every 4 s and ev
 converted to the first radar's site, so the azimuths of a scan are not monotonic;
 ``mixed`` (2-5) a close pass, a split, a lock jump, an operator switch and SR1 at once,
 with a ship radar and MISTRAM; ``scale`` (5-20, 10 unless ``n_objects`` is given) the
-several-objects benchmark scenario of issue 9 (run it with ``duration=1800``): the
+several-objects benchmark scenario (``make bench``; run it with ``duration=1800``): the
 surveillance radar SR1 (a scan every 4 s, 20 clutter plots per scan), three fixed tracking
 radars R1, R2, R3, each with two tracks at a time that may be handed over to another object
 mid-flight (so each radar follows 2-4 objects), and GPS on exactly four objects (T1..T4; the
@@ -315,7 +315,7 @@ def _mixed(d: Draw, n: int) -> Layout:
 
 
 def _scale(d: Draw, n: int) -> Layout:
-    """Issue 9's benchmark scenario: n independent flights, SR1, then R1..R3 (see
+    """The several-objects benchmark scenario: n independent flights, SR1, then R1..R3 (see
     :func:`handover_tracks`), then exactly ``SCALE_GPS`` GPS carriers."""
     flights = [plan_trajectory(r, d.span, d.t0) for r in d.rngs]
     sensors: list[ms.Sensor] = [surveillance_radar(d)]

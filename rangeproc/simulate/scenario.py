@@ -15,7 +15,8 @@ range rate on odd seeds; TH1 has a laser range on ``seed % 4 < 2``.
 ``faults`` injects systematic sensor errors with truth (names and signs of the data contract,
 section 4; SI units): they change the noise-free measurements before noise is added, draw no
 random numbers (the noise is the same as without faults) and are written as
-``truth_calibration.json``. :data:`ISSUE8_FAULTS` is the registration scenario's preset.
+``truth_calibration.json``. :data:`REGISTRATION_FAULTS` is the registration scenario's preset
+(``rangeproc simulate --faults registration``).
 """
 from __future__ import annotations
 
@@ -64,14 +65,19 @@ FAULTS: dict[str, tuple[str, tuple[str, ...]]] = {
 #: largest |fault| per unit: catches degrees given for radians; the latency bound keeps
 #: t - latency inside the trajectory (``sample_times`` leaves a 0.1 s margin)
 FAULT_LIMIT = {"m": 1000.0, "rad": 0.1, "s": 0.1}
-#: the registration issue's scenario: R1 long and high, TH1 azimuth/elevation biases, S1
-#: antenna yawed to starboard with its stamps 40 ms late
-ISSUE8_FAULTS: dict[str, dict[str, float]] = {
+#: the sensor-registration scenario (preset ``registration``): R1 long and high, TH1
+#: azimuth/elevation biases, S1 antenna yawed to starboard with its stamps 40 ms late
+REGISTRATION_FAULTS: dict[str, dict[str, float]] = {
     "R1": {"range": 15.0, "azimuth": 0.5 * _MRAD, "elevation": 0.5 * _MRAD},
     "TH1": {"azimuth": 20.0 * _ARCSEC, "elevation": -20.0 * _ARCSEC},
     "S1": {"mount_yaw": math.radians(0.3), "latency": 0.040},
 }
-FAULT_PRESETS: dict[str, dict[str, dict[str, float]]] = {"none": {}, "issue8": ISSUE8_FAULTS}
+#: former name of :data:`REGISTRATION_FAULTS`, kept for existing scripts
+ISSUE8_FAULTS = REGISTRATION_FAULTS
+FAULT_PRESETS: dict[str, dict[str, dict[str, float]]] = {
+    "none": {}, "registration": REGISTRATION_FAULTS}
+#: preset names still accepted but not listed: former name -> preset
+FAULT_PRESET_ALIASES = {"issue8": "registration"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -454,11 +460,13 @@ def _sensor_faults(sid: str, given: object) -> dict[str, float]:
 
 def resolve_faults(spec: str) -> dict[str, dict[str, float]]:
     """Faults named on the command line: a preset name (:data:`FAULT_PRESETS`, e.g. 'none',
-    'issue8'), a JSON object ``{sensor_id: {name: value_SI}}`` or the path of a JSON file
-    holding one. Returns the mapping unchecked (:func:`simulate_scenario` checks it)."""
+    'registration'; also the former names of :data:`FAULT_PRESET_ALIASES`), a JSON object
+    ``{sensor_id: {name: value_SI}}`` or the path of a JSON file holding one. Returns the
+    mapping unchecked (:func:`simulate_scenario` checks it)."""
     key = spec.strip()
-    if key.lower() in FAULT_PRESETS:
-        return FAULT_PRESETS[key.lower()]
+    name = FAULT_PRESET_ALIASES.get(key.lower(), key.lower())
+    if name in FAULT_PRESETS:
+        return FAULT_PRESETS[name]
     what = "JSON"
     try:
         if key.startswith("{"):
@@ -489,7 +497,7 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     noise=False writes exact measurements (no noise, wild points, bursts or empty cells; gaps,
     coverage limits, latency and row shuffling are kept) for tests.
     faults: ``{sensor_id: {name: value}}`` systematic errors in SI units with the data
-    contract's names and signs (section 4; see :data:`FAULTS`), e.g. :data:`ISSUE8_FAULTS`;
+    contract's names and signs (section 4; see :data:`FAULTS`), e.g. :data:`REGISTRATION_FAULTS`;
     applied with or without noise and written to ``truth_calibration.json`` (only the
     sensors written). None or {} writes exactly the fault-free files (and no such file).
     """

@@ -88,9 +88,9 @@ class Objects:
         self.rows = rows
         self.priors = priors
         self.sensor_ids = sensor_ids
-        self.settings = replace(settings, noise_passes=0, calibration=(), refraction=None,
-                                q_search_rows=QUICK_Q_SEARCH_ROWS)
-        self.noise_passes = settings.noise_passes
+        self.settings = replace(settings.with_processing(noise_passes=0), calibration=(),
+                                refraction=None, q_search_rows=QUICK_Q_SEARCH_ROWS)
+        self.noise_passes = settings.processing.noise_passes
         self.members: dict[str, list[tuple[int, np.ndarray]]] = {}
         self.tracks: dict[str, ObjectTrack] = {}
         #: per object, the sorted times (s) of its member rows when its trajectory was adopted
@@ -145,7 +145,8 @@ class Objects:
         seen, ``tracking.synthesis._doubtful``; a second costs a third more.)"""
         try:
             result = fuse_target(self.members_batch(self.members[name]), SCORING_RATE_HZ,
-                                 replace(self.settings, noise_passes=min(1, self.noise_passes)),
+                                 self.settings.with_processing(
+                                     noise_passes=min(1, self.noise_passes)),
                                  prior=self.priors.get(name))
         except NoPositionFix:
             return None

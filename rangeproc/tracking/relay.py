@@ -1,4 +1,4 @@
-"""Relay between objects (track synthesis step 5, seed 003's relay between sensors): a
+"""Relay between objects (track synthesis step 5; He 2015 relays between sensors): a
 discovered object that continues another across a gap, or continues one of the other's sensor
 tracks, joins it when its rows near the gap fit the other's trajectory carried across; with one
 declared target, an object alone in time is that target. Used by ``tracking.synthesis``.

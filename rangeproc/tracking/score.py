@@ -4,7 +4,7 @@ For a row ``z`` of a sensor and an object with smoothed state ``x(t)`` and covar
 (9-state constant acceleration, range ENU), the predicted measurement is ``h(x(t_row))`` and
 the innovation covariance ``S = H P Hᵀ + R``, with ``x``, ``P`` carried from the nearest
 output epoch to the row time by the constant-acceleration model (its white-jerk noise ``q``
-growing ``P`` across a gap: the bridged prediction of seed 003). The row's log-likelihood
+growing ``P`` across a gap: the bridged prediction of He 2015). The row's log-likelihood
 ratio of "this object" against "something else in view" is the robust mixture
 
     llr = log((1 - eps) N(z - h; 0, S) / p_other + eps),
@@ -13,7 +13,7 @@ ratio of "this object" against "something else in view" is the robust mixture
 100 km of range, a turn of azimuth, a quarter turn of elevation, 2 km/s of range rate, 100 km
 per Cartesian axis), ``eps = OUTLIER_PROBABILITY``. A wild row therefore costs at most
 ``log eps`` instead of arbitrarily much, and a row of another object costs just that. A
-segment's score is the sum over its rows: the track-oriented score of seed 003's association
+segment's score is the sum over its rows: the track-oriented score of He 2015's association
 "by position, time and heading" (the whole time series of the segment is compared, so its
 velocity and heading are compared too).
 

@@ -2,7 +2,7 @@
 
 A radar or theodolite ``track_id`` is only a hint (DATA_CONTRACT section 2): a lock may jump
 to another object during a close pass, an operator may slew to another object. Each sensor's
-track is therefore filtered on its own first (seed 003: per-sensor filtering before
+track is therefore filtered on its own first (He 2015: per-sensor filtering before
 association) and cut into *segments*, pieces that each follow one object.
 
 The filter works in the sensor's own measurement space, one constant-acceleration Kalman

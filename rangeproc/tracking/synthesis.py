@@ -1,4 +1,4 @@
-"""Track synthesis: from every sensor's rows to the rows of each object (seed 003).
+"""Track synthesis: from every sensor's rows to the rows of each object (He 2015).
 
 1. **Segments** (``tracking.segments``, ``tracking.plots``, ``tracking.plot_tracker``): every
    radar/theodolite track is cut where it jumped to another object or paused. Plots (rows

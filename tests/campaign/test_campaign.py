@@ -176,6 +176,53 @@ def test_a_folder_of_configs_is_a_campaign(campaign_dir) -> None:
     assert spec.out_dir == (campaign_dir / "flights" / "campaign").resolve()
 
 
+def test_a_folder_of_sortie_folders_is_a_campaign(campaign_dir) -> None:
+    """FOLDER/<id>/config.toml: each sub-folder with a config.toml is a sortie named after
+    the sub-folder, writing where its config says; other sub-folders are not sorties."""
+    folder = campaign_dir / "sorties"
+    text = sensor_subset((SAMPLE / "scenario.toml").read_text(), ("G1",))  # GPS only: quick
+    for name in ("F102", "F101"):
+        (folder / name).mkdir(parents=True)
+        (folder / name / "config.toml").write_text(
+            text.replace('file = "', 'file = "../../data/'))          # output: <id>/out
+    (folder / "notes").mkdir()                                           # no config.toml
+    spec = load_campaign(folder)
+    assert [(s.id, s.config) for s in spec.sorties] == [
+        (n, (folder / n / "config.toml").resolve()) for n in ("F101", "F102")]
+    assert spec.out_dir == (folder / "campaign").resolve()
+    result = CliRunner().invoke(main, ["campaign", "--quiet", "--workers", "2", str(folder)])
+    assert result.exit_code == 0, result.output
+    rec = json.loads((folder / "campaign" / "campaign.json").read_text())
+    assert rec["counts"] == {"done": 2, "skipped": 0, "failed": 0}
+    assert {s["id"]: s["out_dir"] for s in rec["sorties"]} == {
+        n: str((folder / n / "out").resolve()) for n in ("F101", "F102")}
+    assert all((folder / n / "out" / "fused.parquet").is_file() for n in ("F101", "F102"))
+
+
+def test_a_sortie_whose_outputs_cannot_be_written_fails_with_exit_5(campaign_dir,
+                                                                   monkeypatch) -> None:
+    """A full disk while a sortie writes: its outcome is failed, exit 5, the one line
+    ``rangeproc run`` prints (path and cause), and nothing of it published."""
+    import errno
+
+    import pyarrow.parquet as pq
+
+    from rangeproc.campaign.sortie import run_sortie
+    from rangeproc.campaign.spec import Sortie
+
+    config = sortie_config(campaign_dir / "flights", "a", "a", sensors=("G1",))
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "Error writing bytes to file. Detail: [errno 28] No "
+                                    "space left on device")
+
+    monkeypatch.setattr(pq, "write_table", full)
+    outcome = run_sortie(Sortie("a", config.resolve()), resume=False)
+    out = (campaign_dir / "out" / "a").resolve()
+    assert (outcome.status, outcome.exit_code) == ("failed", 5)
+    assert outcome.reason == f"cannot write {out / 'fused.parquet'}: No space left on device"
+    assert not any(out.iterdir())
+
 def test_campaign_records_assess_each_instrument(campaign_dir, open_page) -> None:
     """campaign.parquet holds each sortie's summary figures; sensor figures and the page
     exist; the page loads in Chromium without error, every figure shown."""

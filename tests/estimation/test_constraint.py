@@ -15,6 +15,7 @@ from rangeproc.estimation.constraint import (
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_target
 from rangeproc.models.measurement import CARTESIAN
+from rangeproc.settings import ProcessingSettings
 
 
 @pytest.mark.parametrize("seed, rho", [(1, 2.0), (2, 0.5), (3, 7.0)])
@@ -89,7 +90,9 @@ def test_constrained_askf_beats_the_unconstrained_on_a_constant_thrust(seed: int
     slowly turning thrust better than the unconstrained one, with the norm given or
     estimated, and stays consistent."""
     ea_ekf, ep_ekf, _ = smoothed_errors(EstimatorSettings(), seed)
-    for st in (EstimatorSettings(askf=True, maneuver_norm=8.0), EstimatorSettings(askf=True)):
+    for p in (ProcessingSettings(filter="askf", maneuver_norm=8.0),
+              ProcessingSettings(filter="askf")):
+        st = EstimatorSettings(processing=p)
         ea, ep, res = smoothed_errors(st, seed)
         assert res.maneuver_norm == pytest.approx(8.0, rel=0.01)
         assert ea < 0.85 * ea_ekf, (ea, ea_ekf)
@@ -101,8 +104,10 @@ def test_constrained_askf_beats_the_unconstrained_on_a_constant_thrust(seed: int
 def test_askf_without_a_usable_norm_is_the_unconstrained_filter() -> None:
     """A maneuver whose magnitude grows from 8 to 20 m/s^2: no usable norm, the EKF exactly."""
     batch = thrust_case(5, growth=6.0)[0]
-    plain = fuse_target(batch, 2.0, EstimatorSettings(noise_passes=1))
-    askf = fuse_target(batch, 2.0, EstimatorSettings(noise_passes=1, askf=True))
+    plain = fuse_target(batch, 2.0,
+                        EstimatorSettings(processing=ProcessingSettings(noise_passes=1)))
+    askf = fuse_target(batch, 2.0, EstimatorSettings(
+        processing=ProcessingSettings(noise_passes=1, filter="askf")))
     assert askf.maneuver_norm is None
     np.testing.assert_array_equal(plain.xs, askf.xs)
 
@@ -114,9 +119,11 @@ def test_a_norm_the_data_reject_is_dropped(caplog) -> None:
     batch = thrust_case(3)[0]
     plain = fuse_target(batch, 2.0, EstimatorSettings())
     with caplog.at_level("WARNING"):
-        wrong = fuse_target(batch, 2.0, EstimatorSettings(askf=True, maneuver_norm=8.4))
+        wrong = fuse_target(batch, 2.0, EstimatorSettings(
+            processing=ProcessingSettings(filter="askf", maneuver_norm=8.4)))
     assert wrong.maneuver_norm is None
     assert "reject the maneuver norm 8.4" in caplog.text
     np.testing.assert_array_equal(plain.xs, wrong.xs)
-    right = fuse_target(batch, 2.0, EstimatorSettings(askf=True, maneuver_norm=8.0))
+    right = fuse_target(batch, 2.0, EstimatorSettings(
+        processing=ProcessingSettings(filter="askf", maneuver_norm=8.0)))
     assert right.maneuver_norm == 8.0

@@ -8,6 +8,7 @@ from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forwa
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN
+from rangeproc.settings import ProcessingSettings
 
 from conftest import gps_line_batch
 
@@ -113,7 +114,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
     from rangeproc.errors import NumericalError
 
     batch = gps_line_batch(np.arange(0.0, 60.0, 0.5), np.random.default_rng(7))
-    settings = centralised.EstimatorSettings(noise_passes=2)
+    settings = centralised.EstimatorSettings(processing=ProcessingSettings(noise_passes=2))
     calls = {"n": 0}
     real = centralised.run_pass
 
@@ -124,7 +125,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
         return real(*args, **kwargs)
 
     reference = centralised.fuse_target(batch, 10.0, centralised.EstimatorSettings(
-        noise_passes=0))
+        processing=ProcessingSettings(noise_passes=0)))
     monkeypatch.setattr(centralised, "run_pass", second_fails)
     result = centralised.fuse_target(batch, 10.0, settings)
     assert calls["n"] == 3     # the failed pass ends the refinement; the pass it refines,

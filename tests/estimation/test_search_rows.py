@@ -8,6 +8,7 @@ import numpy as np
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, MIN_SEARCH_RATE_HZ, search_rows
 from rangeproc.fusion import centralised
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+from rangeproc.settings import ProcessingSettings
 
 from conftest import gps_line_batch
 
@@ -30,5 +31,5 @@ def test_fuse_span_searches_over_the_floored_row_count(monkeypatch):
     monkeypatch.setattr(centralised, "start_process_noise", spy)
     t = np.arange(0.0, 900.0, 0.5)
     fuse_span(gps_line_batch(t, np.random.default_rng(2)), 1.0,
-              EstimatorSettings(noise_passes=0))
+              EstimatorSettings(processing=ProcessingSettings(noise_passes=0)))
     assert seen["max_rows"] == search_rows(t[-1] - t[0]) == int(MIN_SEARCH_RATE_HZ * 899.5)

@@ -13,6 +13,7 @@ from rangeproc.fusion.centralised import EstimatorSettings, fuse_span, output_gr
 from rangeproc.fusion.lead_in import forward_in_time, lead_in_rows, time_reversed
 from rangeproc.estimation.imm import CA
 from rangeproc.models.measurement import SPHERICAL, measure_py
+from rangeproc.settings import ProcessingSettings
 
 RATE_HZ = 5.0
 THEODOLITE_SITE = np.array([-12000.0, 3000.0, 300.0])
@@ -88,7 +89,7 @@ def test_a_reversed_run_reproduces_the_forward_smoother() -> None:
     b = scenario(2)
     rest = b.rows(slice(lead_in_rows(b), None))
     grid = output_grid(rest.t[0], rest.t[-1], RATE_HZ)
-    st = EstimatorSettings(noise_passes=1)
+    st = EstimatorSettings(processing=ProcessingSettings(noise_passes=1))
     fwd = fuse_span(rest, RATE_HZ, st, grid_t=grid)
     back = forward_in_time(fuse_span(time_reversed(rest), RATE_HZ, st,
                                      grid_t=np.ascontiguousarray(-grid[::-1])))

@@ -11,6 +11,7 @@ import pytest
 from rangeproc.errors import NumericalError
 from rangeproc.fusion import centralised
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+from rangeproc.settings import ProcessingSettings
 
 from conftest import gps_line_batch
 
@@ -40,7 +41,8 @@ def test_the_refined_pass_is_done_again_and_kept_when_its_refinement_fails(
 
     monkeypatch.setattr(centralised, "run_pass", spy)
     with caplog.at_level(logging.WARNING, logger="rangeproc.fusion.centralised"):
-        res = fuse_span(_gps_batch(3), 2.0, EstimatorSettings(noise_passes=2))
+        res = fuse_span(_gps_batch(3), 2.0,
+                        EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
     assert "the pass it refines is kept" in caplog.text
     assert len(calls) == fail_call + 1                  # the kept pass was done once more
     again, first = calls[-1], calls[kept_call]
@@ -60,6 +62,7 @@ def test_without_a_failure_each_pass_runs_once(monkeypatch):
         return calls[-1]
 
     monkeypatch.setattr(centralised, "run_pass", spy)
-    res = fuse_span(_gps_batch(3), 2.0, EstimatorSettings(noise_passes=2))
+    res = fuse_span(_gps_batch(3), 2.0,
+                    EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
     assert len(calls) == 3
     np.testing.assert_array_equal(res.xs, calls[-1].xs)

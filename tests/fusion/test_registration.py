@@ -11,7 +11,7 @@ import pytest
 
 from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
-from rangeproc.simulate import ISSUE8_FAULTS, simulate_scenario
+from rangeproc.simulate import REGISTRATION_FAULTS, simulate_scenario
 
 
 def _variant(config: Path, name: str, *, processing: str = "", drop: tuple[str, ...] = (),
@@ -39,7 +39,7 @@ def _variant(config: Path, name: str, *, processing: str = "", drop: tuple[str, 
 @pytest.fixture(scope="module")
 def faulted(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("faults")
-    return simulate_scenario(folder, seed=4, duration=120.0, faults=ISSUE8_FAULTS)
+    return simulate_scenario(folder, seed=4, duration=120.0, faults=REGISTRATION_FAULTS)
 
 
 @pytest.fixture(scope="module")

@@ -8,6 +8,7 @@ from rangeproc.errors import DataError
 from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span, fuse_target, span_slices
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+from rangeproc.settings import ProcessingSettings
 
 
 def gps_rows(t: np.ndarray, rng: np.random.Generator) -> SensorRows:
@@ -39,7 +40,7 @@ def test_two_spans_have_no_epochs_in_the_gap_and_equal_separate_runs() -> None:
     rng = np.random.default_rng(4)
     t = np.concatenate([np.arange(0.0, 30.0, 0.5), np.arange(500.0, 530.0, 0.5)])
     batch = merge([(0, gps_rows(t, rng))], ("G1",))
-    st = EstimatorSettings(noise_passes=1)
+    st = EstimatorSettings(processing=ProcessingSettings(noise_passes=1))
     res = fuse_target(batch, 2.0, st)
     assert res.spans == ((0.0, 29.5), (500.0, 529.5))
     grid_t = res.epoch_t[res.grid]
@@ -56,8 +57,9 @@ def test_a_span_that_cannot_start_is_left_out_and_counted() -> None:
     gps = gps_rows(np.arange(0.0, 30.0, 0.5), rng)
     rates = rate_only_rows(np.arange(200.0, 210.0, 0.5))
     batch = merge([(0, gps), (1, rates)], ("G1", "M"))
-    res = fuse_target(batch, 2.0, EstimatorSettings(noise_passes=0))
+    once = EstimatorSettings(processing=ProcessingSettings(noise_passes=0))
+    res = fuse_target(batch, 2.0, once)
     assert len(res.spans) == 1 and res.n_unstarted == {1: 20}
     assert len(res.batch) == 60
     with pytest.raises(DataError, match="cannot initialise"):
-        fuse_target(merge([(1, rates)], ("G1", "M")), 2.0, EstimatorSettings(noise_passes=0))
+        fuse_target(merge([(1, rates)], ("G1", "M")), 2.0, once)

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 from rangeproc.cli import main
 from rangeproc.config import load_config
 from rangeproc.errors import ConfigError
-from rangeproc.simulate import ISSUE8_FAULTS, draw_scenario, simulate_scenario
+from rangeproc.simulate import REGISTRATION_FAULTS, draw_scenario, resolve_faults, simulate_scenario
 from rangeproc.simulate import sensors as sn
 from geo_oracle import TO_GEO, ecef, enu_basis, truth_splines
 
@@ -279,7 +279,7 @@ def test_mount_latency_and_bias_against_truth(root, seed):
     ({"S1": {"mount_yaw": 0.3 * 180 / math.pi}}, "SI units"),  # degrees given for radians
     ({"S1": {"latency": 40.0}}, "faults.S1.latency"),
     ({"R1": 15.0}, "faults.R1"),
-    ("issue8", "faults="),
+    ("registration", "faults="),
 ])
 def test_invalid_faults_raise_config_error(tmp_path, faults, needle):
     with pytest.raises(ConfigError, match="simulate: ") as info:
@@ -297,7 +297,7 @@ def test_no_faults_is_todays_output(tmp_path):
         assert sorted(p.name for p in other.iterdir()) == sorted(p.name for p in base.iterdir())
     assert not (base / "truth_calibration.json").exists()
     # a faulted run changes only the faulted sensors' files (+ the config comment)
-    bad = simulate_scenario(tmp_path / "d", seed=6, duration=DUR, faults=ISSUE8_FAULTS).parent
+    bad = simulate_scenario(tmp_path / "d", seed=6, duration=DUR, faults=REGISTRATION_FAULTS).parent
     for f in ("SHIP_INS.csv", "G1.csv", "MISTRAM.csv", "truth.csv"):
         assert filecmp.cmp(base / f, bad / f, shallow=False), f
     for f in ("R1.csv", "TH1.parquet", "S1.csv"):
@@ -309,7 +309,7 @@ def test_no_faults_is_todays_output(tmp_path):
 
 
 def test_truth_calibration_json(tmp_path):
-    cfg = simulate_scenario(tmp_path / "a", seed=3, duration=DUR, faults=ISSUE8_FAULTS)
+    cfg = simulate_scenario(tmp_path / "a", seed=3, duration=DUR, faults=REGISTRATION_FAULTS)
     doc = json.loads((cfg.parent / "truth_calibration.json").read_text())
     # seed 3: S1 also has the scenario's known time_offset of +0.05 s (its stamps are 50 ms
     # early); the contract's latency is the residual after that offset: the fault, 0.04 s
@@ -332,10 +332,15 @@ def test_truth_calibration_json(tmp_path):
 def test_cli_faults_preset_and_json(tmp_path):
     runner = CliRunner()
     res = runner.invoke(main, ["simulate", str(tmp_path / "a"), "--duration", "20",
-                               "--sensors", "R1,S1,SHIP_INS", "--faults", "issue8", "-q"])
+                               "--sensors", "R1,S1,SHIP_INS", "--faults", "registration",
+                               "-q"])
     assert res.exit_code == 0, res.output
     doc = json.loads((tmp_path / "a" / "truth_calibration.json").read_text())
-    assert doc == {k: ISSUE8_FAULTS[k] for k in ("R1", "S1")}
+    assert doc == {k: REGISTRATION_FAULTS[k] for k in ("R1", "S1")}
+    # the preset's former name is still accepted (not listed in the help)
+    assert resolve_faults("issue8") is resolve_faults("Registration") is REGISTRATION_FAULTS
+    res = runner.invoke(main, ["simulate", "--help"])
+    assert "'registration'" in res.output and "issue8" not in res.output
     spec = json.dumps({"R1": {"range": 15.0}})
     res = runner.invoke(main, ["simulate", str(tmp_path / "b"), "--duration", "20",
                                "--sensors", "R1", "--faults", spec, "-q"])

@@ -558,7 +558,7 @@ def test_cli_objects(tmp_path):
     for name in ("R1.csv", "scenario.toml", "truth_association.csv"):
         assert filecmp.cmp(tmp_path / "a" / name, direct / name, shallow=False), name
     for args, needle in ((["--objects", "swarm"], "objects='swarm'"),
-                         (["--objects", "mixed", "--faults", "issue8"], "--faults"),
+                         (["--objects", "mixed", "--faults", "registration"], "--faults"),
                          (["--objects", "mixed", "--sensors", "R1"], "--sensors"),
                          (["--n-objects", "3"], "--n-objects needs --objects")):
         res = runner.invoke(main, ["simulate", str(tmp_path / "e"), *args])

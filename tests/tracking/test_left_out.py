@@ -8,8 +8,10 @@ import pytest
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_target
 from rangeproc.tracking.objects import object_track
 from rangeproc.tracking.score import score_rows, score_rows_left_out
+from rangeproc.settings import ProcessingSettings
 
-SETTINGS = EstimatorSettings(noise_passes=0, adapt_noise=False, process_noise=1.0)
+SETTINGS = EstimatorSettings(
+    processing=ProcessingSettings(noise_passes=0, adapt_noise=False, process_noise=1.0))
 
 
 def plots(plot_batch, seed: int):
