@@ -11,12 +11,12 @@ SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test fuzz bench bench-quick bench-campaign reproduce accuracy registration multi autoferry sample-data lint clean
+.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration multi autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+	$(BIN)/python -m pip install --quiet -e '.[test,bench,docs]'
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 
@@ -31,13 +31,18 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
+## docs: the documentation site (mkdocs.yml, docs/) -> site/, every warning an error.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict --site-dir site
+
 ## fuzz: a fuzz campaign of FUZZ_CASES mutated runs in two processes; prints a table of outcomes.
 fuzz: $(STAMP)
 	$(BIN)/python bench/fuzz.py --cases $(FUZZ_CASES) --seed $(FUZZ_SEED)
 
-## bench: time the pipeline and filter kernels against FilterPy / Stone Soup.
+## bench: time the pipeline and filter kernels against FilterPy / Stone Soup
+## -> docs/measurements/bench.json (the speed page of the docs is generated from it).
 bench: $(STAMP)
-	$(BIN)/python bench/bench.py
+	$(BIN)/python bench/bench.py --out docs/measurements/bench.json
 
 bench-quick: $(STAMP)
 	$(BIN)/python bench/bench.py --quick
@@ -52,24 +57,27 @@ reproduce: $(STAMP)
 	$(BIN)/python -m bench.reproduction $(if $(ONLY),--only $(ONLY))
 
 ## accuracy: simulate several seeds, run, evaluate (with and without MISTRAM + theodolite),
-## for each filter of FILTERS, the stated sigmas scaled by SIGMA_FACTOR.
+## for each filter of FILTERS, the stated sigmas scaled by SIGMA_FACTOR -> docs/measurements/accuracy.json.
 accuracy: $(STAMP)
-	$(BIN)/python bench/reproduce.py --seeds $(SEEDS) --filters $(FILTERS) --sigma-factor $(SIGMA_FACTOR)
+	$(BIN)/python bench/reproduce.py --seeds $(SEEDS) --filters $(FILTERS) --sigma-factor $(SIGMA_FACTOR) \
+		--out docs/measurements/accuracy.json
 
-## registration: the registration sweep (simulator faults with truth, calibration on/off), SEEDS.
+## registration: the registration sweep (simulator faults with truth, calibration on/off), REG_SEEDS
+## -> docs/measurements/registration.json.
 registration: $(STAMP)
-	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS)
+	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS) --out docs/measurements/registration.json
 
 ## multi: the several-objects sweep (simulator kinds x MULTI_SEEDS, against the true assignment)
+## -> docs/measurements/multi.json.
 multi: $(STAMP)
-	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS)
+	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS) --out docs/measurements/multi.json
 
 ## autoferry: the real Autoferry data (../shared/realdata/autoferry, tools/autoferry.py) through
 ## rangeproc (with and without the camera bearings) and Stone Soup's GNN and JPDA trackers (the
 ## JPDA limited to 10 min a scenario), scored vs GNSS truth, with the acceptance block
-## -> bench/autoferry.json.
+## -> docs/measurements/autoferry.json.
 autoferry: $(STAMP)
-	$(BIN)/python bench/autoferry.py
+	$(BIN)/python bench/autoferry.py --json docs/measurements/autoferry.json
 
 ## sample-data: regenerate sample_data/ (seed 1, 120 s) and configs/sample.toml.
 sample-data: $(STAMP)

@@ -85,7 +85,9 @@ on mean GOSPA, on coverage averaged over the two boats and on best-match RMSE av
 two boats, a boat no object matches counting as infinite; the scenarios where all three hold,
 target >= 7 of 9; per tracker the mean GOSPA, mean coverage, median best-match RMSE, the
 boat-scenarios above :data:`RMSE_BAD_M` = 30 m and the total swaps), then each run's time, and
-writes everything to ``bench/autoferry.json`` (``--json``).
+writes everything to ``bench/autoferry.json`` (``--json``; ``make autoferry``:
+docs/measurements/autoferry.json), with the ``meta`` block of ``bench/meta.py`` (machine, date,
+commit, command).
 """
 from __future__ import annotations
 
@@ -881,7 +883,11 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print(runs)
     unfinished = [r["scenario"] for r in results if not r["stonesoup_jpda"]["finished"]]
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from meta import run_meta
+    a.json.parent.mkdir(parents=True, exist_ok=True)
     a.json.write_text(json.dumps({
+        "meta": run_meta(peers=("stonesoup",)),
         "cutoff_m": a.cutoff,
         "stonesoup": {"q": SS_Q, "prior_speed": SS_PRIOR_SPEED,
                       "missed_distance": SS_MISSED_DISTANCE, "min_points": SS_MIN_POINTS,

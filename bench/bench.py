@@ -35,8 +35,10 @@
    truth.csv with ``rangeproc.evaluate`` (several objects: per truth object RMSE, coverage, identity
    swaps; GOSPA), so that the speed is not bought with wrong answers.
 
-Writes every number plus machine info to ``bench/results.json`` (and prints the previous
-file's headline numbers, if there was one, for comparison). ``--quick`` is the CI size
+Writes every number plus machine info to ``--out`` (default ``bench/results.json``; ``make
+bench``: ``docs/measurements/bench.json``), with the ``meta`` block of ``bench/meta.py``, and
+prints the previous file's headline numbers, if there was one, for comparison. ``--quick`` is
+the CI size
 (a 300 s sortie at the simulator's own rates unless ``--rows`` or ``--rate-scale`` is given,
 and a 300 s ``scale`` scenario). ``--skip-kernel``, ``--skip-pipeline`` and ``--skip-multi``
 each leave out one of the three parts.
@@ -68,6 +70,7 @@ sys.path.insert(0, str(BENCH))
 
 import peers  # noqa: E402  (bench/ is put on sys.path just above)
 from breakdown import Breakdown, print_breakdown, rss_and_peak  # noqa: E402
+from meta import run_meta  # noqa: E402
 
 #: acceptance figures of the issue
 TARGET_US, TARGET_FP, TARGET_SS, TARGET_AGREE = 2.5, 25.0, 500.0, 1e-8
@@ -810,6 +813,8 @@ def main(argv: list[str] | None = None) -> None:
         print_multi(res["multi"])
     print_acceptance(res)
     print_previous(a.out, res)
+    res = {"meta": run_meta(peers=("filterpy", "stonesoup")), **res}
+    a.out.parent.mkdir(parents=True, exist_ok=True)
     a.out.write_text(json.dumps(res, indent=2) + "\n")
     print(f"\nwrote {a.out.relative_to(ROOT) if a.out.is_relative_to(ROOT) else a.out}")
 

@@ -1,4 +1,4 @@
-"""Campaign benchmark (issue 11): N sample-sized sorties, serially and on a local Dask cluster.
+"""Campaign benchmark: N sample-sized sorties, serially and on a local Dask cluster.
 
 Builds ``bench/data/campaign_<N>/`` (N copies of the bundled sample sortie's config, each
 writing its own output folder, all reading the one copy of ``sample_data``), then times:

@@ -5,13 +5,16 @@ it with ``rangeproc evaluate`` (several objects: per truth object its best-match
 object, RMSE, coverage, identity swaps, fragments; GOSPA), and run the *true assignment*
 oracle: for every truth object, the same scenario with each radar/theodolite file reduced to
 that object's rows (``truth_association.csv``) and only that object's GPS/MISTRAM, declared
-as the only target. The issue's acceptance: zero swaps, coverage >= 90 % of the span the
+as the only target. The acceptance criteria: zero swaps, coverage >= 90 % of the span the
 object was observed (``coverage_observed``: from its first to its last measurement in
 ``truth_association.csv`` and its own GPS/MISTRAM files), RMSE within 1.25x of the oracle's.
 Coverage is printed at the 50 m cutoff and (``c.3x``) at max(50 m, 3x the oracle's RMSE):
 an object only a surveillance radar sees is tracked to its plots' 100 m, not to 50 m.
 
     python bench/multi.py [--kinds crossing ...] [--seeds 1 2 3] [--out bench/multi.json]
+
+The JSON is ``{"meta": ..., "rows": [...]}`` (``bench/meta.py``); ``make multi`` writes it to
+docs/measurements/multi.json.
 """
 from __future__ import annotations
 
@@ -29,6 +32,8 @@ try:
     import tomllib
 except ModuleNotFoundError:                       # Python 3.10
     import tomli as tomllib
+
+from meta import with_meta  # bench/ is on sys.path: scripts, not a package
 
 from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
@@ -153,7 +158,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("bench/multi.json"))
     args = ap.parse_args()
     rows = sweep(args.kinds, args.seeds)
-    args.out.write_text(json.dumps(rows, indent=2))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(with_meta(rows), indent=2) + "\n")
     print(f"\n{'kind':<16}{'seed':>5} {'object':<7}{'match':<7}{'RMSE m':>9}{'oracle':>9}"
           f"{'ratio':>7}{'cover':>7}{'c.obs':>7}{'c.3x':>7}{'swaps':>6}{'frag':>5}")
     for r in rows:

@@ -1,12 +1,14 @@
 """Registration acceptance sweep (``make registration``): sensor faults injected with truth.
 
-For every seed the simulator writes the scenario twice, with the registration issue's faults
-(``rangeproc.simulate.ISSUE8_FAULTS``: radar range/azimuth/elevation biases, theodolite angle
-biases, a ship radar yawed 0.3 deg on its deck with time stamps 40 ms late) and without; each
-is run with the registration on (the default) and off. Printed per seed: every injected term's
+For every seed the simulator writes the scenario twice, with the registration preset's faults
+(``rangeproc simulate --faults registration``: radar range/azimuth/elevation biases, theodolite
+angle biases, a ship radar yawed 0.3 deg on its deck with time stamps 40 ms late) and without;
+each is run with the registration on (the default) and off. Printed per seed: every injected term's
 estimate against truth (in its sigmas and as a share of its size), and the fused position
 RMSE, share of epochs inside 3 sigma (worst axis) and NEES of the four runs. Usage:
-``python bench/registration.py --seeds 1 2 3 4 5``; writes bench/registration.json.
+``python bench/registration.py --seeds 1 2 3 4 5``; writes ``--out`` (default
+bench/registration.json; ``make registration``: docs/measurements/registration.json) as
+``{"meta": ..., "rows": [...]}`` (``bench/meta.py``).
 """
 from __future__ import annotations
 
@@ -15,9 +17,11 @@ import json
 import tempfile
 from pathlib import Path
 
+from meta import with_meta  # bench/ is on sys.path: scripts, not a package
+
 from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
-from rangeproc.simulate import ISSUE8_FAULTS, simulate_scenario
+from rangeproc.simulate import REGISTRATION_FAULTS, simulate_scenario
 
 
 def with_registration(config: Path, on: bool) -> Path:
@@ -47,7 +51,7 @@ def main() -> None:
             for faulted in (True, False):
                 folder = Path(tmp) / f"seed{seed}_{'faults' if faulted else 'clean'}"
                 cfg = simulate_scenario(folder, seed=seed, duration=args.duration,
-                                        faults=ISSUE8_FAULTS if faulted else None)
+                                        faults=REGISTRATION_FAULTS if faulted else None)
                 for on in (True, False):
                     out = run(with_registration(cfg, on))
                     key = f"{'faults' if faulted else 'clean'}_{'cal' if on else 'nocal'}"
@@ -67,7 +71,8 @@ def main() -> None:
                                     "reason": got.get("unobservable", "")})
             report.append(row)
             print(json.dumps(row))
-    args.out.write_text(json.dumps(report, indent=2))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(with_meta(report), indent=2) + "\n")
     print(f"\n{'seed':>4} {'sensor':<6} {'term':<10} {'true':>10} {'estimate':>10} "
           f"{'sigma':>9} {'|err|/σ':>8} {'|err|/true':>10}")
     for row in report:

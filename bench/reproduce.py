@@ -3,7 +3,9 @@
 For every seed: the full scenario and the same scenario without the MISTRAM and theodolite
 files (graceful degradation), with every filter asked for (``--filters``, default the EKF) and
 the stated sigmas scaled by ``--sigma-factor`` (1 = the simulator's true sigmas; its GPS has a
-noise burst of 8-12 s). Prints one table and writes bench/reproduce.json. Usage:
+noise burst of 8-12 s). Prints one table and writes ``--out`` (default bench/reproduce.json;
+``make accuracy``: docs/measurements/accuracy.json) as ``{"meta": ..., "rows": [...]}``
+(``bench/meta.py``). Usage:
 ``python bench/reproduce.py --seeds 1 2 3 --filters ekf imm --sigma-factor 2``.
 """
 from __future__ import annotations
@@ -14,6 +16,8 @@ import re
 import tempfile
 import time
 from pathlib import Path
+
+from meta import with_meta  # bench/ is on sys.path: scripts, not a package
 
 from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
@@ -72,7 +76,8 @@ def main() -> None:
                                      "pos_rmse", "pos_p95", "vel_rmse", "vel_p95",
                                      "inside_3sigma_enu", "nees_pos_mean")}})
                     print(json.dumps(rows[-1]))
-    args.out.write_text(json.dumps(rows, indent=2))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(with_meta(rows), indent=2) + "\n")
     print(f"\nstated sigmas x{args.sigma_factor:g}")
     print(f"{'seed':>4} {'filter':<10} {'case':<24} {'pos RMSE':>9} {'pos p95':>8} "
           f"{'vel RMSE':>9} {'in 3σ (e,n,u)':>20} {'NEES':>6}")

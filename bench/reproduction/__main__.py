@@ -1,4 +1,4 @@
-"""Run the seed reproductions and write ``reproduction/README.md`` plus one or more PNGs each.
+"""Reproduce the source papers' experiments: ``reproduction/README.md`` and PNGs for each.
 
 Usage (from the repository root): ``python -m bench.reproduction [--only 002 004]
 [--out reproduction] [--keep-work DIR]``. Each experiment runs in its own scratch folder

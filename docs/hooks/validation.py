@@ -1,0 +1,637 @@
+"""The Validation and performance pages, generated from the measurement files at build time.
+
+``make accuracy``, ``make registration``, ``make multi``, ``make autoferry`` and ``make bench``
+write ``docs/measurements/<name>.json`` (each with a ``meta`` block: machine, UTC date, git
+commit, command; ``bench/meta.py``). This module renders each file into a Markdown page of
+tables, so that no number on those pages is copied by hand:
+
+==========================  ==========================  ====================
+page                        measurements                made by
+==========================  ==========================  ====================
+validation/index.md         all of them                 (overview)
+validation/accuracy.md      accuracy.json               ``make accuracy``
+validation/registration.md  registration.json           ``make registration``
+validation/several-objects  multi.json                  ``make multi``
+validation/real-data.md     autoferry.json              ``make autoferry``
+validation/speed.md         bench.json                  ``make bench``
+==========================  ==========================  ====================
+
+A page whose file is missing says "Not measured yet: run `make X`"; a file without a ``meta``
+block (written before it existed) is rendered with the machine and date stated as unknown.
+
+As an MkDocs hook (``hooks: [docs/hooks/validation.py]`` in ``mkdocs.yml``) the pages are
+served as generated files (:func:`on_files`): nothing is written into ``docs/``. As a script,
+``python docs/hooks/validation.py --out DIR`` writes them to ``DIR`` for a look without
+MkDocs. The rendering needs only the standard library.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import sys
+import tempfile
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+DOCS = Path(__file__).resolve().parents[1]
+MEASUREMENTS = DOCS / "measurements"
+GENERATED_NOTE = ("<!-- generated at build time by docs/hooks/validation.py from "
+                  "docs/measurements/{file}: edit the generator, not this page -->")
+DASH = "–"
+
+
+# ------------------------------------------------------------------------ formatting
+def fmt(value: Any, spec: str = ".3f") -> str:
+    """``value`` formatted with ``spec``; a dash for None, NaN or a missing value."""
+    if value is None or isinstance(value, bool):
+        return DASH if value is None else ("yes" if value else "no")
+    if isinstance(value, (int, float)):
+        if isinstance(value, float) and not math.isfinite(value):
+            return DASH if math.isnan(value) else ("∞" if value > 0 else "−∞")
+        return format(value, spec)
+    return str(value)
+
+
+def table(headers: Sequence[str], rows: Iterable[Sequence[Any]],
+          align: str | None = None) -> str:
+    """A Markdown table; ``align``: one letter per column, ``l`` or ``r`` (default: the
+    first column left, the others right)."""
+    align = align or "l" + "r" * (len(headers) - 1)
+    bar = ["---:" if a == "r" else "---" for a in align]
+    lines = ["| " + " | ".join(h.replace("|", "\\|") for h in headers) + " |",
+             "| " + " | ".join(bar) + " |"]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def load(path: Path) -> tuple[Any, str | None]:
+    """(data, None), (None, None) when the file is missing, (None, reason) when unreadable."""
+    if not path.exists():
+        return None, None
+    try:
+        return json.loads(path.read_text()), None
+    except (OSError, ValueError) as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def rows_of(data: Any) -> list[Any]:
+    """The rows of a list-valued bench result: ``{"meta", "rows"}`` or a bare list (files
+    written before the meta block)."""
+    if isinstance(data, dict):
+        return list(data.get("rows") or [])
+    return list(data or [])
+
+
+def meta_of(data: Any) -> dict[str, Any] | None:
+    """The ``meta`` block (``bench/meta.py``); for an older ``make bench`` file, the same
+    facts from its ``machine`` block; None when the file does not say."""
+    if isinstance(data, dict) and isinstance(data.get("meta"), dict):
+        return data["meta"]
+    if isinstance(data, dict) and isinstance(data.get("machine"), dict):
+        m = data["machine"]
+        return {"machine": {"cpu": m.get("processor") or m.get("machine"),
+                            "cores": m.get("cpu_count"), "os": m.get("platform"),
+                            "python": m.get("python"), "numpy": m.get("numpy"),
+                            "numba": m.get("numba")},
+                "date": m.get("timestamp"), "git_commit": m.get("git_commit"),
+                "command": None}
+    return None
+
+
+def measured_on(data: Any, file: str, target: str) -> str:
+    """The paragraph saying where, when and how the page's numbers were measured."""
+    meta = meta_of(data)
+    raw = f"Raw data: [`{file}`](../measurements/{file}); rerun with `make {target}`."
+    if meta is None:
+        return ("**Measured on:** machine and date unknown (this file has no `meta` block: "
+                f"it was written before `make {target}` recorded them). " + raw)
+    m = meta.get("machine") or {}
+    cores = m.get("cores")
+    usable = m.get("cores_usable")
+    core_text = (f"{cores} cores" if cores and (usable in (None, cores))
+                 else f"{usable} of {cores} cores" if cores else None)
+    mem = f"{m['memory_gib']:g} GiB" if m.get("memory_gib") else None
+    machine = ", ".join(p for p in (m.get("cpu"), core_text, mem, m.get("os")) if p)
+    soft = ", ".join(f"{name} {m[key]}" for name, key in (
+        ("Python", "python"), ("numpy", "numpy"), ("numba", "numba"),
+        ("FilterPy", "filterpy"), ("Stone Soup", "stonesoup")) if m.get(key))
+    date = meta.get("date") or "unknown date"
+    parts = [f"**Measured on:** {machine or 'unknown machine'}"
+             + (f" ({soft})" if soft else "") + f", {date.replace('T', ' ')} (UTC)"]
+    if meta.get("git_commit"):
+        parts.append(f"commit `{meta['git_commit']}`")
+    load = m.get("load_average")
+    if load:
+        parts.append(f"load average {load[0]:.2f} at the end (1 min)")
+    text = "; ".join(parts) + "."
+    if meta.get("command"):
+        text += f" Command: `{meta['command']}`."
+    return text + " " + raw
+
+
+def not_measured(title: str, file: str, target: str, reason: str | None = None) -> str:
+    if reason:
+        return (f"# {title}\n\n`docs/measurements/{file}` could not be read ({reason}). "
+                f"Rerun `make {target}`.\n")
+    return (f"# {title}\n\nNot measured yet: run `make {target}` (it writes "
+            f"`docs/measurements/{file}`).\n")
+
+
+# -------------------------------------------------------------------------- accuracy
+def render_accuracy(data: Any) -> str:
+    rows = rows_of(data)
+    out = ["Each seed simulates a flight of a maneuvering aircraft (turns, climbs, speed "
+           "changes) seen by a fixed radar, a theodolite of limited coverage, a ship radar on a "
+           "rolling platform, a GPS with dropouts and a noise burst and several MISTRAM "
+           "stations, with wild points. The fused trajectory is scored against the "
+           "simulator's truth: 3-D position RMSE and 95th percentile, velocity RMSE, the share "
+           "of output epochs whose error lies within 3 sigma on each axis (e, n, u), and the "
+           "mean 3-D position NEES (3 when the sigmas are honest). The same seed is also run "
+           "without the MISTRAM and theodolite files (*reduced*)."]
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r.get("filter", "ekf"), r.get("sigma_factor", 1.0)), []).append(r)
+    order = {"full": 0}
+    for (name, factor), group in groups.items():
+        title = f"Filter `{name}`"
+        if factor != 1.0:
+            title += f", stated sigmas × {factor:g}"
+        group = sorted(group, key=lambda r: (order.get(r.get("case"), 1), r.get("seed", 0)))
+        out.append(f"## {title}\n\n" + table(
+            ["seed", "sensors", "pos RMSE (m)", "pos p95 (m)", "vel RMSE (m/s)",
+             "in 3σ (e, n, u)", "NEES", "run (s)"],
+            [[r.get("seed"), "all" if r.get("case") == "full" else "no MISTRAM, no theodolite",
+              fmt(r.get("pos_rmse")), fmt(r.get("pos_p95")), fmt(r.get("vel_rmse")),
+              ", ".join(fmt(v) for v in r.get("inside_3sigma_enu") or []),
+              fmt(r.get("nees_pos_mean"), ".2f"), fmt(r.get("elapsed_s"), ".1f")]
+             for r in group], "rlrrrrrr"))
+    names = sorted({k[0] for k in groups})
+    if len(names) > 1 and "ekf" in names:
+        ekf = {(r["seed"], r["case"], r.get("sigma_factor", 1.0)): r["pos_rmse"]
+               for r in rows if r.get("filter") == "ekf"}
+        cols = sorted({(r["seed"], r["case"], r.get("sigma_factor", 1.0)) for r in rows},
+                      key=lambda k: (k[2], k[0], order.get(k[1], 1)))
+
+        def cell(name: str, key: tuple) -> str:
+            r = next((r for r in rows if r.get("filter") == name and
+                      (r["seed"], r["case"], r.get("sigma_factor", 1.0)) == key), None)
+            if r is None:
+                return DASH
+            ratio = r["pos_rmse"] / ekf[key] if ekf.get(key) else None
+            worst = min(r.get("inside_3sigma_enu") or [float("nan")])
+            return f"{fmt(r['pos_rmse'])} ({fmt(ratio, '.2f')}×, {fmt(100 * worst, '.0f')} %)"
+        heads = [f"seed {k[0]} {'all' if k[1] == 'full' else 'reduced'}"
+                 + (f" σ×{k[2]:g}" if k[2] != 1.0 else "") for k in cols]
+        out.append("## Every filter against the EKF\n\nPosition RMSE (m), its ratio to the "
+                   "`ekf` row and the worst axis's share of epochs inside 3σ.\n\n"
+                   + table(["filter", *heads], [[f"`{n}`", *(cell(n, k) for k in cols)]
+                                                for n in names]))
+    return "\n\n".join(out)
+
+
+# ---------------------------------------------------------------------- registration
+#: display unit of each calibration term: (unit, factor from SI)
+TERM_UNITS = {"range": ("m", 1.0), "latency": ("ms", 1e3)}
+
+
+def _term_unit(name: str) -> tuple[str, float]:
+    return TERM_UNITS.get(name, ("mrad", 1e3))
+
+
+def render_registration(data: Any) -> str:
+    seeds = rows_of(data)
+    out = ["Each seed simulates the flight with known sensor faults (the simulator's "
+           "registration preset, `rangeproc simulate --faults registration`: radar range, "
+           "azimuth and elevation biases, theodolite angle biases, a ship radar yawed on its "
+           "deck with late time stamps) and without them, and runs both with the "
+           "registration on and off. Every injected term's estimate is compared with the "
+           "truth: the absolute error in the estimate's reported sigmas and as a share of the "
+           "injected fault. Ranges in m, latencies in ms, angles in mrad."]
+    worst: dict[tuple[str, str], dict[str, Any]] = {}
+    for s in seeds:
+        for t in s.get("terms", []):
+            w = worst.setdefault((t["sensor"], t["name"]), {"true": t["true"], "sig": None,
+                                                             "share": None, "n": 0, "na": 0})
+            w["n"] += 1
+            if t.get("estimate") is None:
+                w["na"] += 1
+                w["reason"] = t.get("reason")
+                continue
+            w["sig"] = max(w["sig"] or 0.0, t["in_sigmas"])
+            w["share"] = max(w["share"] or 0.0, t["share"])
+    out.append("## Per term, worst over the seeds\n\n" + table(
+        ["sensor", "term", "injected", "worst error / σ", "worst error / injected",
+         "seeds", "not observable"],
+        [[sensor, name, f"{fmt(w['true'] * _term_unit(name)[1], '.4g')} {_term_unit(name)[0]}",
+          fmt(w["sig"], ".2f"), fmt(None if w["share"] is None else 100 * w["share"], ".1f")
+          + (" %" if w["share"] is not None else ""), w["n"],
+          f"{w['na']} ({w.get('reason', '')})" if w["na"] else "0"]
+         for (sensor, name), w in worst.items()], "llrrrrl"))
+    out.append("## Per seed and term\n\n" + table(
+        ["seed", "sensor", "term", "injected", "estimate", "σ", "error / σ",
+         "error / injected"],
+        [[s["seed"], t["sensor"], t["name"],
+          f"{fmt(t['true'] * _term_unit(t['name'])[1], '.4g')} {_term_unit(t['name'])[0]}",
+          (f"{fmt(t['estimate'] * _term_unit(t['name'])[1], '.4g')}"
+           if t.get("estimate") is not None else f"not observable: {t.get('reason', '')}"),
+          fmt(None if t.get("sigma") is None else t["sigma"] * _term_unit(t["name"])[1], ".2g"),
+          fmt(t.get("in_sigmas"), ".2f"),
+          (fmt(100 * t["share"], ".1f") + " %") if t.get("share") is not None else DASH]
+         for s in seeds for t in s.get("terms", [])], "rllrrrrr"))
+
+    def run(r: dict | None) -> str:
+        if not r:
+            return DASH
+        return f"{fmt(r.get('rmse'))} / {fmt(r.get('in3'))} / {fmt(r.get('nees'), '.2f')}"
+
+    def ratio(s: dict) -> str:
+        a, b = s["runs"].get("faults_cal"), s["runs"].get("clean_nocal")
+        return fmt(a["rmse"] / b["rmse"], ".2f") + "×" if a and b and b.get("rmse") else DASH
+    out.append("## Fused trajectory\n\nPosition RMSE (m) / worst axis's share of epochs inside "
+               "3σ / mean position NEES, for the four runs of each seed; the last column is "
+               "the registered faulty run's RMSE over the fault-free run's without "
+               "registration.\n\n" + table(
+                   ["seed", "faults, registration on", "faults, off", "no faults, on",
+                    "no faults, off", "faults on / no faults off"],
+                   [[s["seed"], run(s["runs"].get("faults_cal")),
+                     run(s["runs"].get("faults_nocal")), run(s["runs"].get("clean_cal")),
+                     run(s["runs"].get("clean_nocal")), ratio(s)] for s in seeds]))
+    return "\n\n".join(out)
+
+
+# -------------------------------------------------------------------- several objects
+RATIO_LIMIT, COVERAGE_LIMIT = 1.25, 0.90
+
+
+def _failing(r: dict) -> bool:
+    return bool(r.get("swaps") or r.get("ratio") is None or r["ratio"] > RATIO_LIMIT
+                or (r.get("coverage_scaled") or 0.0) < COVERAGE_LIMIT)
+
+
+def render_multi(data: Any) -> str:
+    rows = rows_of(data)
+    errors = [r for r in rows if "error" in r]
+    objs = [r for r in rows if "error" not in r]
+    out = ["Each kind of the simulator's several-object scenarios (crossing aircraft, "
+           "formations that split, a tracking radar's lock jumping to another object, an "
+           "operator switching objects, surveillance radars with clutter, plot feeds in any "
+           "order, and a mix) is simulated over several seeds. rangeproc's output is scored "
+           "against the truth with `rangeproc evaluate` (50 m cutoff), and each truth object "
+           "is compared with the *true assignment*: rangeproc on the same scenario reduced to "
+           "that object's own rows. Acceptance per object: no identity swap, RMSE within "
+           f"{RATIO_LIMIT:g}× the true assignment's, coverage of the span the object was "
+           f"observed at least {COVERAGE_LIMIT:.2f} at max(50 m, 3× the true assignment's "
+           "RMSE) (*scaled cutoff*: an object only a surveillance radar sees is tracked to "
+           "its plots' accuracy, not to 50 m)."]
+    kinds: dict[str, list[dict]] = {}
+    for r in objs:
+        kinds.setdefault(r["kind"], []).append(r)
+    for r in errors:
+        kinds.setdefault(r["kind"], [])
+
+    def summary(kind: str, group: list[dict]) -> list[Any]:
+        scen = {(r["kind"], r["seed"]) for r in group} | {
+            (r["kind"], r["seed"]) for r in errors if kind in ("all", r["kind"])}
+        errs = sum(1 for r in errors if kind in ("all", r["kind"]))
+        ratios = [r for r in group if r.get("ratio") is not None]
+        worst = max(ratios, key=lambda r: r["ratio"], default=None)
+        cov = [r for r in group if r.get("coverage_scaled") is not None]
+        low = min(cov, key=lambda r: r["coverage_scaled"], default=None)
+        gospa = {(r["kind"], r["seed"]): r["gospa_mean"] for r in group
+                 if r.get("gospa_mean") is not None}
+        return [kind, len(scen), errs, len(group), sum(int(r.get("swaps") or 0) for r in group),
+                sum(1 for r in group if r.get("rmse") is None),
+                f"{sum(1 for r in ratios if r['ratio'] <= RATIO_LIMIT)} of {len(group)}",
+                (f"{fmt(worst['ratio'], '.2f')}× ({worst['kind']} {worst['seed']} "
+                 f"{worst['object']})" if worst else DASH),
+                f"{sum(1 for r in group if (r.get('coverage_observed') or 0) >= COVERAGE_LIMIT)}"
+                f" of {len(group)}",
+                f"{sum(1 for r in cov if r['coverage_scaled'] >= COVERAGE_LIMIT)} of {len(group)}",
+                (f"{fmt(low['coverage_scaled'], '.3f')} ({low['kind']} {low['seed']} "
+                 f"{low['object']})" if low else DASH),
+                fmt(statistics.mean(gospa.values()) if gospa else None, ".1f")]
+    heads = ["kind", "scenarios", "runs failed", "objects", "swaps", "unmatched",
+             f"within {RATIO_LIMIT:g}×", "worst ratio", f"coverage ≥ {COVERAGE_LIMIT:.2f} at "
+             "50 m", f"coverage ≥ {COVERAGE_LIMIT:.2f} scaled", "lowest coverage (scaled)",
+             "mean GOSPA (m)"]
+    body = [summary(k, g) for k, g in kinds.items()]
+    body.append(["**all**", *summary("all", objs)[1:]])
+    out.append("## Per kind\n\n" + table(heads, body, "lrrrrrrlrrlr"))
+    if errors:
+        out.append("## Runs that failed\n\n" + table(
+            ["kind", "seed", "error"], [[r["kind"], r["seed"], r["error"]] for r in errors],
+            "lrl"))
+    obj_heads = ["kind", "seed", "object", "match", "RMSE (m)", "true assignment (m)", "ratio",
+                 "coverage", "coverage observed", "coverage scaled", "swaps", "fragments"]
+
+    def obj_row(r: dict) -> list[Any]:
+        return [r["kind"], r["seed"], r["object"], r.get("match") or DASH,
+                fmt(r.get("rmse"), ".2f"), fmt(r.get("oracle_rmse"), ".2f"),
+                fmt(r.get("ratio"), ".2f"), fmt(r.get("coverage")), fmt(r.get("coverage_observed")),
+                fmt(r.get("coverage_scaled")), fmt(r.get("swaps"), "d"),
+                fmt(r.get("fragments"), "d")]
+    failing = [r for r in objs if _failing(r)]
+    out.append("## Objects outside the acceptance\n\n" + (
+        table(obj_heads, [obj_row(r) for r in failing], "lrllrrrrrrrr") if failing
+        else "None: every object is within the acceptance."))
+    out.append("## Every object\n\n" + table(obj_heads, [obj_row(r) for r in objs],
+                                             "lrllrrrrrrrr"))
+    return "\n\n".join(out)
+
+
+# ------------------------------------------------------------------------ real data
+TRACKERS = (("rangeproc", "rangeproc"), ("rangeproc_no_cameras", "rangeproc, no cameras"),
+            ("stonesoup", "Stone Soup GNN"), ("stonesoup_jpda", "Stone Soup JPDA"))
+
+
+def _score(r: dict, key: str) -> dict | None:
+    """Scenario ``r``'s score of tracker ``key`` (None when it failed or did not finish):
+    rangeproc with the cameras is the contract run, or the surface-plane run where that
+    failed and was run (as ``bench/autoferry.py`` scores it)."""
+    if key == "rangeproc":
+        rc = r.get("rangeproc_contract") or {}
+        if rc.get("ok"):
+            return rc.get("score")
+        rs = r.get("rangeproc_surface") or {}
+        return rs.get("score") if rs.get("ok") else None
+    run = r.get(key) or {}
+    return run.get("score") if run.get("finished", True) else None
+
+
+def render_autoferry(data: Any) -> str:
+    results = data.get("results", []) if isinstance(data, dict) else []
+    cutoff = data.get("cutoff_m", 20.0) if isinstance(data, dict) else 20.0
+    out = ["Real radar and lidar plots and camera bearings from the Autoferry data set "
+           "([the conversion](../methods/real-data.md)), run through rangeproc (with and "
+           "without the camera bearings) and through Stone Soup's GNN and JPDA trackers on the "
+           "same plots, all scored by `rangeproc evaluate` against the boats' GNSS truth with "
+           f"a {cutoff:g} m cutoff. RMSE: the boat's best-matching object's RMSE (m); cov: "
+           "coverage; sw: identity swaps; GOSPA: mean over the scenario (m; p = 2, α = 2, "
+           f"c = {cutoff:g} m). Stone Soup's estimates are filtered, rangeproc's smoothed."]
+    heads = ["scenario", "boat"]
+    for _, label in TRACKERS:
+        heads += [f"{label} RMSE", "cov", "sw", "GOSPA"]
+    body = []
+    for r in results:
+        for k, boat in enumerate(("B1", "B2")):
+            row: list[Any] = [r.get("scenario") if k == 0 else "", boat]
+            for key, _ in TRACKERS:
+                sc = _score(r, key)
+                if sc is None:
+                    run = r.get(key) or {}
+                    why = "timed out" if run.get("timed_out") else "failed"
+                    row += [why if k == 0 else "", "", "", ""]
+                    continue
+                m = (sc.get("boats") or {}).get(boat, {})
+                row += [fmt(m.get("best_match_rmse"), ".1f"), fmt(m.get("coverage"), ".2f"),
+                        fmt(m.get("swaps"), "d"), fmt(sc.get("gospa_mean"), ".1f") if k == 0
+                        else ""]
+            body.append(row)
+    out.append("## Per scenario and boat\n\n" + table(heads, body))
+    acc = data.get("acceptance") if isinstance(data, dict) else None
+    if acc:
+        per = acc.get("per_scenario", [])
+
+        def versus(row: dict, key: str, spec: str, crit: str) -> str:
+            v = (row.get("values") or {}).get(key)
+            if not v:
+                return DASH
+            others = " / ".join(fmt(v[k], spec) for k in ("stonesoup", "stonesoup_jpda") if k in v)
+            return f"{fmt(v.get('rangeproc'), spec)} vs {others} ({fmt(row.get(crit))})"
+        out.append("## Against both baselines\n\nPer scenario, rangeproc (with the cameras) "
+                   "against Stone Soup GNN / JPDA: better (strictly) on mean GOSPA, on "
+                   "coverage (mean over the two boats) and on best-match RMSE (mean over the "
+                   "two boats, a boat without a match counting as infinite).\n\n" + table(
+                       ["scenario", "GOSPA (m)", "coverage", "best-match RMSE (m)",
+                        "all three"],
+                       [[row.get("scenario"), versus(row, "gospa_mean", ".1f", "gospa"),
+                         versus(row, "coverage_mean", ".2f", "coverage"),
+                         versus(row, "best_match_rmse_mean", ".1f", "rmse"),
+                         fmt(row.get("all")) + (f" ({row['note']})" if row.get("note") else "")]
+                        for row in per], "rrrrl")
+                   + f"\n\nAll three hold in {acc.get('n_all_three')} of "
+                     f"{acc.get('n_scenarios')} scenarios.")
+        trackers = acc.get("per_tracker", {})
+        out.append("## Per tracker over the scenarios\n\nMean of the scenarios' mean GOSPA; "
+                   "coverage mean and median best-match RMSE over the boat-scenarios; "
+                   "boat-scenarios whose best-match RMSE is above 30 m (or without a match); "
+                   "total identity swaps.\n\n" + table(
+                       ["tracker", "scenarios", "GOSPA (m)", "coverage", "RMSE median (m)",
+                        "RMSE > 30 m", "swaps"],
+                       [[s.get("label", key), s.get("n_scenarios"), fmt(s.get("gospa_mean"), ".2f"),
+                         fmt(s.get("coverage_mean")), fmt(s.get("best_match_rmse_median"), ".2f"),
+                         s.get("n_rmse_above_30m"), s.get("swaps_total")]
+                        for key, s in trackers.items()]))
+    return "\n\n".join(out)
+
+
+# ---------------------------------------------------------------------------- speed
+def render_speed(data: Any) -> str:
+    data = data if isinstance(data, dict) else {}
+    params = data.get("params") or {}
+    out = ["`make bench` (`bench/bench.py`) times, in one process, the same EKF + RTS smoother "
+           "(and UKF + smoother) on identical radar rows in rangeproc, FilterPy and Stone Soup, "
+           "with the agreement of their results; then a whole `rangeproc run` on a simulated "
+           "six-sensor sortie in a fresh process, per stage and with its peak memory; then the "
+           "several-objects `scale` scenario the same way."]
+    if params.get("quick"):
+        out.append("!!! note \"A CI-sized run\"\n    These figures come from `bench/bench.py "
+                   "--quick`: fewer kernel rows and repetitions, a "
+                   f"{fmt(params.get('duration_s'), 'g')} s sortie and a "
+                   f"{fmt(params.get('multi_duration_s'), 'g')} s several-objects scenario "
+                   "instead of the full one-hour sortie of about two million rows and the "
+                   "30-minute scenario. `make bench` measures the full sizes.")
+    k = data.get("kernel")
+    if k:
+        us, ag = k["us_per_meas"], k.get("agreement", {})
+
+        def agree(name: str, src: dict) -> str:
+            a = src.get(name)
+            return fmt(a.get("smoothed_pos_rel"), ".1e") if a else DASH
+        rows = [["rangeproc (compiled)", k["rows"], fmt(us["rangeproc"], ".2f"), "1.0×", DASH],
+                ["FilterPy `ExtendedKalmanFilter` + `rts_smoother`", k["rows"],
+                 fmt(us["filterpy"], ".1f"), fmt(k.get("ratio_filterpy"), ".1f") + "×",
+                 agree("filterpy", ag)],
+                ["Stone Soup EKF + smoother, analytic Jacobian", k.get("stonesoup_rows"),
+                 fmt(us["stonesoup"], ".0f"), fmt(k.get("ratio_stonesoup"), ".0f") + "×",
+                 agree("stonesoup", ag)],
+                ["Stone Soup, stock finite-difference Jacobian", k.get("stonesoup_rows"),
+                 fmt(us.get("stonesoup_stock"), ".0f"),
+                 fmt(k.get("ratio_stonesoup_stock"), ".0f") + "×", agree("stonesoup_stock", ag)]]
+        heads = ["implementation", "rows", "µs per measurement", "× rangeproc",
+                 "agreement (smoothed position, relative)"]
+        out.append("## Filter kernels\n\n### EKF + RTS smoother\n\nOne radar (range, azimuth, "
+                   f"elevation) at dt = {fmt(k.get('dt_s'), 'g')} s, filter and smoother, per "
+                   "measurement row.\n\n" + table(heads, rows))
+        u = k.get("ukf")
+        if u:
+            uu, ua = u["us_per_meas"], u.get("agreement", {})
+            out.append("### UKF + unscented (RTS) smoother\n\n" + table(heads, [
+                ["rangeproc (compiled)", u["rows"], fmt(uu["rangeproc"], ".2f"), "1.0×", DASH],
+                ["FilterPy `UnscentedKalmanFilter` + `rts_smoother`", u["rows"],
+                 fmt(uu["filterpy"], ".1f"), fmt(u.get("ratio_filterpy"), ".1f") + "×",
+                 agree("filterpy_redraw", ua)],
+                ["Stone Soup unscented filter + smoother", u.get("stonesoup_rows"),
+                 fmt(uu["stonesoup"], ".0f"), fmt(u.get("ratio_stonesoup"), ".0f") + "×",
+                 agree("stonesoup", ua)]]))
+        f = k.get("filters")
+        if f:
+            base = {"stukf": "UKF"}
+            out.append("### The further filters\n\nNo peer library offers these; the same radar "
+                       "rows, filter + smoother (the spline row without its batch fit).\n\n"
+                       + table(["filter", "µs per measurement", "ratio to its base row",
+                                "ratio to the EKF row"],
+                               [[f"`{n}`", fmt(r["us_per_meas"], ".2f"),
+                                 f"{fmt(r['ratio_to_base'], '.2f')}× the "
+                                 f"{base.get(n, 'EKF')}", fmt(r["ratio_to_ekf"], ".2f") + "×"]
+                                for n, r in f.items()], "lrrr"))
+        if k.get("rangeproc_cold_first_call_s") is not None:
+            out.append(f"Compilation: the first kernel call in a fresh process with an empty "
+                       f"numba cache takes {fmt(k['rangeproc_cold_first_call_s'], '.1f')} s; "
+                       f"the bench process's first call (with the numba cache as it found it: "
+                       f"compiled kernels are reused until their sources change) "
+                       f"{fmt(k.get('rangeproc_first_call_s'), '.2f')} s.")
+    for key, title in (("pipeline", "Whole pipeline: one object"),
+                       ("multi", "Whole pipeline: several objects at scale")):
+        p = data.get(key)
+        if not p:
+            continue
+        gb = (p.get("peak_rss_bytes") or 0) / 1e9
+        what = (f"`{p.get('kind')}` scenario, " if key == "multi" else "six-sensor sortie, ")
+        lines = [[stage, fmt(s, ".2f")] for stage, s in (p.get("stages_s") or {}).items()]
+        lines += [["**`rangeproc run`, process start to exit**",
+                   f"**{fmt(p.get('process_wall_s'), '.1f')}**"]]
+        text = (f"## {title}\n\nA {fmt(p.get('duration_s'), 'g')} s {what}"
+                f"{p.get('total_rows', 0):,} rows; peak memory (VmHWM) {gb:.2f} GB; "
+                f"{fmt(p.get('us_per_meas_wall'), '.1f')} µs per row (process wall clock), "
+                f"{fmt(p.get('us_per_meas_run'), '.1f')} µs per row in `run()`.")
+        if key == "multi":
+            ratio = p.get("ratio_wall_target", p.get("ratio_wall"))
+            if ratio is not None:
+                text += (f" Per measurement row of the objects that is "
+                         f"{fmt(ratio, '.2f')}× the single-object sortie's cost per "
+                         "measurement row")
+                text += (f" ({fmt(p['ratio_wall'], '.2f')}× per row of any kind)."
+                         if p.get("ratio_wall") is not None else ".")
+            sc = (p.get("score") or {})
+            tot, g = sc.get("totals") or {}, (sc.get("gospa") or {}).get("mean")
+            if tot:
+                text += (f" Score against the truth: {tot.get('n_truth')} objects, "
+                         f"{tot.get('n_fused')} output objects, mean GOSPA {fmt(g, '.1f')} m, "
+                         f"coverage mean {fmt(tot.get('coverage_mean'), '.3f')}, "
+                         f"{tot.get('swaps')} identity swaps.")
+        out.append(text + "\n\n" + table(["stage", "seconds"], lines))
+    if not (k or data.get("pipeline") or data.get("multi")):
+        out.append("The file holds no timing section.")
+    return "\n\n".join(out)
+
+
+# ----------------------------------------------------------------------------- pages
+#: page -> (title, measurement file, make target, renderer)
+PAGES: dict[str, tuple[str, str, str, Callable[[Any], str]]] = {
+    "validation/accuracy.md": ("Accuracy on simulated flights", "accuracy.json", "accuracy",
+                               render_accuracy),
+    "validation/registration.md": ("Registration of sensor faults", "registration.json",
+                                   "registration", render_registration),
+    "validation/several-objects.md": ("Several objects", "multi.json", "multi", render_multi),
+    "validation/real-data.md": ("Real data: Autoferry", "autoferry.json", "autoferry",
+                                render_autoferry),
+    "validation/speed.md": ("Speed and memory", "bench.json", "bench", render_speed),
+}
+
+
+def render_page(uri: str, measurements: Path = MEASUREMENTS) -> str:
+    """One page's Markdown from its measurement file."""
+    title, file, target, render = PAGES[uri]
+    data, problem = load(measurements / file)
+    if data is None:
+        return not_measured(title, file, target, problem)
+    return (f"# {title}\n\n{GENERATED_NOTE.format(file=file)}\n\n"
+            f"{measured_on(data, file, target)}\n\n{render(data)}\n")
+
+
+def render_index(measurements: Path = MEASUREMENTS) -> str:
+    """The overview: each page with the machine and date of its measurements."""
+    rows = []
+    for uri, (title, file, target, _) in PAGES.items():
+        data, problem = load(measurements / file)
+        meta = meta_of(data) if data is not None else None
+        if data is None:
+            when = "unreadable" if problem else "not measured yet"
+            where = DASH
+        elif meta is None:
+            when, where = "unknown", "unknown"
+        else:
+            when = (meta.get("date") or "unknown").replace("T", " ")
+            m = meta.get("machine") or {}
+            where = ", ".join(str(p) for p in (m.get("cpu"), f"{m['cores']} cores"
+                                               if m.get("cores") else None) if p) or "unknown"
+        rows.append([f"[{title}]({Path(uri).name})", f"`make {target}`",
+                     f"`docs/measurements/{file}`", when, where])
+    return ("# Validation and performance\n\n" + GENERATED_NOTE.format(file="*.json") + "\n\n"
+            "Every number on these pages is read from a measurement file that a `make` target "
+            "writes, when the documentation is built (`docs/hooks/validation.py`); none is "
+            "copied by hand. Each page states the machine, date, commit and command of its "
+            "measurement. The methods measured are described in [Methods]"
+            "(../methods/index.md).\n\n"
+            + table(["page", "made by", "file", "measured (UTC)", "machine"], rows, "lllll")
+            + "\n")
+
+
+def render_all(measurements: Path = MEASUREMENTS) -> dict[str, str]:
+    """Every generated page: ``{uri: markdown}``."""
+    pages = {"validation/index.md": render_index(measurements)}
+    pages.update({uri: render_page(uri, measurements) for uri in PAGES})
+    return pages
+
+
+# ----------------------------------------------------------------------- MkDocs hook
+def _generated_file(config: Any, uri: str, text: str) -> Any:
+    from mkdocs.structure.files import File
+    if hasattr(File, "generated"):                  # MkDocs >= 1.6: a virtual file
+        return File.generated(config, uri, content=text)
+    root = Path(tempfile.gettempdir()) / "rangeproc-docs-generated"   # older MkDocs
+    path = root / uri
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return File(uri, str(root), config["site_dir"], config["use_directory_urls"])
+
+
+def on_files(files: Any, config: Any, **_: Any) -> Any:
+    """MkDocs ``on_files``: add the generated validation pages (replacing any file of the
+    same path) and leave the hook sources out of the site."""
+    docs_dir = Path(config["docs_dir"])
+    for f in list(files):
+        uri = getattr(f, "src_uri", f.src_path).replace("\\", "/")
+        if uri.startswith("hooks/"):
+            files.remove(f)
+    for uri, text in render_all(docs_dir / "measurements").items():
+        old = files.get_file_from_path(uri)
+        if old is not None:
+            files.remove(old)
+        files.append(_generated_file(config, uri, text))
+    return files
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--measurements", type=Path, default=MEASUREMENTS)
+    ap.add_argument("--out", type=Path, help="write the pages under this folder "
+                                             "(default: print them)")
+    a = ap.parse_args(argv)
+    for uri, text in render_all(a.measurements).items():
+        if a.out:
+            path = a.out / uri
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+            print(f"wrote {path}")
+        else:
+            print(f"===== {uri}\n{text}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
