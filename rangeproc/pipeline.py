@@ -21,10 +21,10 @@ import numpy as np
 
 import rangeproc
 from rangeproc.config import Config, SensorSettings, TargetSettings, load_config
-from rangeproc.editing.audit import edit_summary, rejected_examples
+from rangeproc.fusion.edit_audit import edit_summary, rejected_examples
 from rangeproc.editing.record import EditRecord
 from rangeproc.editing.screen import screen_logs
-from rangeproc.editing.table import edit_table
+from rangeproc.fusion.edit_table import edit_table
 from rangeproc.editing.units import UnitSuspicion, angle_unit_checks, stated_sigma_line
 from rangeproc.errors import ConfigError, DataError, OutputError, write_failure
 from rangeproc.frames.geodesy import RangeFrame

@@ -161,7 +161,7 @@ def test_every_fused_column_is_documented() -> None:
 
 
 def test_every_edits_column_is_documented() -> None:
-    from rangeproc.editing.table import EDIT_COLUMNS
+    from rangeproc.fusion.edit_table import EDIT_COLUMNS
 
     names = table_names(section_of(DOCS / "outputs.md", "edits.parquet"))
     missing = [c for c in EDIT_COLUMNS if c not in names]

@@ -22,7 +22,7 @@ tracked object moves, so two things are added to the textbook form:
 
 Inside a **noise burst** nothing is pre-edited: when the window's lower-quartile deviation
 (in sigmas) exceeds ``BURST_RATIO`` times the floor, most of the window is noisy, and the
-smoother's burst scale (``editing.noise.residual_sigma``), which is a running median of the
+smoother's burst scale (``fusion.noise.residual_sigma``), which is a running median of the
 residuals, needs those values to see the burst at its full size; its gate judges them.
 
 The window keeps its full length at the series' ends (it is shifted, not cut), so a run of up
@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from rangeproc.editing.limits import drop_empty_rows
-from rangeproc.editing.noise import MAD_TO_SIGMA
+from rangeproc.editing.robust import MAD_TO_SIGMA
 from rangeproc.editing.record import EditRecord
 from rangeproc.io.logs import SensorLog, replace_columns
 

@@ -8,7 +8,7 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    memory, no output rows and no numerical trouble from a covariance grown over hours;
 1. epochs: the union of row times and output-grid times, so the smoother estimates the state
    exactly at the grid epochs (no interpolation between measurement epochs);
-2. noise pre-edit: a-priori sigmas raised to difference-based estimates (``editing.noise``);
+2. noise pre-edit: a-priori sigmas raised to difference-based estimates (``fusion.noise``);
 3. initialisation from the first position fixes (``fusion.initialise``); rows long before
    them (angles, range rates) are estimated backwards in time from the smoothed state at the
    first fix (``fusion.lead_in``);
@@ -34,7 +34,7 @@ from functools import partial
 
 import numpy as np
 
-from rangeproc.editing.noise import difference_sigma, residual_sigma
+from rangeproc.fusion.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, UKF
@@ -187,7 +187,7 @@ class FusionResult:
     maneuver_norm: the norm (m/s^2) the constrained ASKF imposed, None when unconstrained;
     model_prob: (E, r) the IMM's smoothed model probabilities, model_names their models (None
     and () for the other filters); down_weight: (N, 6) int8, why the final pass's sigma of a
-    component exceeds its sensor's global noise estimate (``editing.noise.BURST`` / ``HUBER``;
+    component exceeds its sensor's global noise estimate (``fusion.noise.BURST`` / ``HUBER``;
     None without noise adaptation).
     """
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rangeproc.editing.noise import robust_spread
+from rangeproc.editing.robust import robust_spread
 from rangeproc.estimation.registration import (
     LATENCY_SLOT,
     MOUNT_SLOT,

@@ -148,7 +148,7 @@ def _rejected_cell(s: Mapping[str, Any], edited: int) -> str:
 
 def _down_weighted_cell(s: Mapping[str, Any]) -> str:
     """Components used with a weight below 2/3, and how many Gaussian noise of the estimated
-    sigma gives (``editing.audit``)."""
+    sigma gives (``fusion.edit_audit``)."""
     if "n_down_weighted" not in s:
         return "–"
     expected = s.get("n_down_weighted_expected")
@@ -159,7 +159,7 @@ def _down_weighted_cell(s: Mapping[str, Any]) -> str:
 
 
 def rejected_table(summary: Mapping[str, Any]) -> str:
-    """The rejected points (``summary["rejected_points"]``, ``editing.audit``): time, sensor,
+    """The rejected points (``summary["rejected_points"]``, ``fusion.edit_audit``): time, sensor,
     file row, component, value and residual in the file's unit, reason; 'and N more' when
     the summary lists only the first ones."""
     listed = summary.get("rejected_points") or {}

@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from rangeproc.editing.noise import robust_spread
+from rangeproc.editing.robust import robust_spread
 from rangeproc.report.common import (
     CYCLE,
     REJECT_COLOR,

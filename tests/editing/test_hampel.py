@@ -110,7 +110,7 @@ def _flags_by_sorting_every_window(t, x, half_width, threshold, floor):
     """The Hampel identifier written directly (each window's slopes and values sorted anew),
     the reference for the kernel's sliding sorted window of slopes."""
     from rangeproc.editing.hampel import BURST_RATIO, QUARTILE_TO_SIGMA
-    from rangeproc.editing.noise import MAD_TO_SIGMA
+    from rangeproc.editing.robust import MAD_TO_SIGMA
 
     n, w = len(x), 2 * half_width + 1
     out = np.zeros(n, dtype=bool)

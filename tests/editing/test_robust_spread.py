@@ -1,11 +1,11 @@
-"""``editing.noise.robust_spread``: 1.4826 MAD, against a direct computation, on all values
+"""``editing.robust.robust_spread``: 1.4826 MAD, against a direct computation, on all values
 and on its evenly spaced subsample of a long series."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rangeproc.editing.noise import MAD_TO_SIGMA, robust_spread
+from rangeproc.editing.robust import MAD_TO_SIGMA, robust_spread
 
 
 def mad_sigma(x: np.ndarray) -> float:

@@ -17,8 +17,8 @@ import pytest
 
 from conftest import describe, invoke
 from newuser import WILD_ROWS, make_flight
-from rangeproc.editing.audit import REJECTED_SHOWN, rejected_examples
-from rangeproc.editing.table import (
+from rangeproc.fusion.edit_audit import REJECTED_SHOWN, rejected_examples
+from rangeproc.fusion.edit_table import (
     DOWN_WEIGHTED,
     EDIT_COLUMNS,
     MATERIAL_WEIGHT,

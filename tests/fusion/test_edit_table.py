@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 
-from rangeproc.editing.table import EDIT_COLUMNS
+from rangeproc.fusion.edit_table import EDIT_COLUMNS
 
 CONFIG = "scenario.toml"
 

@@ -15,13 +15,13 @@ Two kinds of decision, told apart by the ``action`` column:
   applied corrections removed, as its other rows), NaN otherwise (whole rows, GPS
   latitude / longitude / height, rows removed with their time stamp).
 * ``down-weighted``: a component the final pass used with a sigma above its sensor's global
-  noise estimate (``editing.noise.residual_sigma``) so much that its weight fell below
+  noise estimate (``fusion.noise.residual_sigma``) so much that its weight fell below
   :data:`MATERIAL_WEIGHT`: ``burst`` (the local scale of a noise burst) and ``residual``
   (Huber's rule on a large two-sided smoother residual: weight ``k / |u|``, so recorded
   beyond ``|u| > k / MATERIAL_WEIGHT = 3`` global sigmas). Their residual is normalised by
   ``sqrt(sigma^2 - H P_s H^T)`` of the global sigma. The smaller down-weightings Huber's rule
   gives to ordinary Gaussian noise (a few per cent of the components) are not decisions an
-  engineer needs to audit and are left out; ``editing.audit.down_weight_expected`` states how
+  engineer needs to audit and are left out; ``fusion.edit_audit.down_weight_expected`` states how
   many recorded ones Gaussian noise of the estimated sigma gives.
 
 Columns: ``sensor`` (id), ``row`` (1-based data row in the sensor's file, as in messages),
@@ -44,7 +44,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from rangeproc.editing.noise import BURST, HUBER, HUBER_K
+from rangeproc.fusion.noise import BURST, HUBER, HUBER_K
 from rangeproc.editing.record import EditRecord
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.fusion.centralised import FusionResult
@@ -59,7 +59,7 @@ EDIT_COLUMNS = ("sensor", "row", "time", "component", "value", "residual",
 REJECTED, DOWN_WEIGHTED = "rejected", "down-weighted"
 #: Smallest post-fit spread of a used component, as a fraction of its global sigma.
 MIN_SPREAD_FRACTION = 0.1
-#: ``reason`` of the down-weighting codes of ``editing.noise.residual_sigma``.
+#: ``reason`` of the down-weighting codes of ``fusion.noise.residual_sigma``.
 DOWN_WEIGHT_REASONS = {BURST: "burst", HUBER: "residual"}
 #: A used component is recorded as down-weighted when its weight is below this (its sigma
 #: raised by more than 22 %): for Huber's rule a normalised residual beyond

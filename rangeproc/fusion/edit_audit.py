@@ -1,5 +1,5 @@
 """What ``summary.json`` and the report page say about a run's edits, from ``edits.parquet``'s
-table (``editing.table``), so that their counts agree with the file.
+table (``fusion.edit_table``), so that their counts agree with the file.
 
 Per sensor: ``n_rejected_points`` (components not used at all, every reason; a whole removed
 row counts once) with ``n_rejected_by_reason``; ``n_down_weighted`` (components used with a
@@ -20,8 +20,8 @@ import numpy as np
 import pandas as pd
 from scipy.special import erfc
 
-from rangeproc.editing.noise import BURST
-from rangeproc.editing.table import (
+from rangeproc.fusion.noise import BURST
+from rangeproc.fusion.edit_table import (
     DOWN_WEIGHT_Z,
     DOWN_WEIGHTED,
     MIN_SPREAD_FRACTION,

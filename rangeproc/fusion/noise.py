@@ -24,27 +24,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
+from rangeproc.editing.robust import MAD_TO_SIGMA
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
 
-MAD_TO_SIGMA = 1.482602218505602
 #: Codes of :func:`residual_sigma`'s down-weighting reasons.
 BURST, HUBER = 1, 2
 #: Huber's threshold on the normalised residual (global sigmas): weight ``min(1, k / |u|)``.
 HUBER_K = 2.0
 MIN_ROWS = 20
-
-
-def robust_spread(x: np.ndarray, *, max_samples: int = 200_000) -> float:
-    """1.4826 x median absolute deviation of the finite values of ``x`` (an evenly spaced
-    subsample of at most ``max_samples``, first and last included); NaN when none."""
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    if x.size > max_samples:    # a step above 1: the truncated indices strictly increase
-        x = x[np.linspace(0, x.size - 1, max_samples).astype(np.int64)]
-    if x.size == 0:
-        return float("nan")
-    return float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x))))
 
 
 def _groups(batch: MeasurementBatch) -> list[np.ndarray]:
