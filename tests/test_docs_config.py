@@ -182,7 +182,7 @@ def test_the_estimator_does_not_declare_processing_keys_again() -> None:
     its own fields repeats a processing key. (Two share a name, not a declaration: its
     ``calibration`` and ``refraction`` are what ``processing.calibration`` and
     ``processing.refraction`` become with the sensors: per-sensor terms and refractivities,
-    ``pipeline.estimator_settings``.)"""
+    ``stages.fuse.estimator_settings``.)"""
     own = {f.name for f in dataclasses.fields(EstimatorSettings)} - {"calibration", "refraction"}
     assert own.isdisjoint(f.name for f in dataclasses.fields(ProcessingSettings))
 

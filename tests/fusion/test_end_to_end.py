@@ -11,7 +11,9 @@ from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.evaluate import evaluate_run
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import merge
-from rangeproc.pipeline import assemble_all, read_all, run
+from rangeproc.pipeline import run
+from rangeproc.stages.assemble import assemble_all
+from rangeproc.stages.read import read_all
 from rangeproc.simulate import simulate_scenario
 
 STATE = ["e", "n", "u", "ve", "vn", "vu", "ae", "an", "au"]

@@ -11,7 +11,7 @@ from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import fuse_target
 from rangeproc.models.measurement import CARTESIAN
 from rangeproc.models.motion import ca_transition_py
-from rangeproc.pipeline import estimator_settings
+from rangeproc.stages.fuse import estimator_settings
 
 Q = 4.0             # white-jerk PSD of the truth (m^2/s^5)
 SIGMA = 3.0         # position fix noise (m)

@@ -21,7 +21,8 @@ import pytest
 
 from rangeproc.config import load_config
 from rangeproc.evaluate.metrics import evaluate_run
-from rangeproc.pipeline import read_all, run
+from rangeproc.pipeline import run
+from rangeproc.stages.read import read_all
 
 REPO = Path(__file__).resolve().parents[2]
 
