@@ -32,8 +32,8 @@ from rangeproc.config import Geodetic
 from rangeproc.errors import DataError
 from rangeproc.evaluate.origin import ORIGIN_FORM, Origin, run_origin
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.io.readers import read_csv_table, read_parquet_table
-from rangeproc.io.timeparse import CellError, clean_strings, time_to_seconds, to_float
+from rangeproc.io.readers import cell_error, read_csv_table, read_parquet_table, read_time
+from rangeproc.io.timeparse import CellError, clean_strings, to_float
 
 log = logging.getLogger(__name__)
 
@@ -105,13 +105,9 @@ def read_truth(path: Path) -> TruthTable:
     vel_cols = _velocity_columns(name, table.column_names)
 
     def fail(column: str, exc: CellError) -> DataError:
-        where = "" if exc.index is None else f"row {rows[exc.index]}, "
-        return DataError(f"{name}: {where}column '{column}': {exc.problem}")
+        return cell_error(name, rows, column, exc)
 
-    try:
-        time = time_to_seconds(table.column("time"))
-    except CellError as exc:
-        raise fail("time", exc) from None
+    time = read_time(table, rows, name)
     values = {}
     for col in pos_cols + vel_cols:
         try:

@@ -143,6 +143,22 @@ def _csv_header(path: Path) -> list[str]:
     return header
 
 
+def cell_error(name: str, rows: np.ndarray, column: str, exc: CellError) -> DataError:
+    """The one-line DataError of a bad cell: file ``name``, the 1-based data row (``rows``
+    maps table positions to file rows) and the column."""
+    where = "" if exc.index is None else f"row {rows[exc.index]}, "
+    return DataError(f"{name}: {where}column '{column}': {exc.problem}")
+
+
+def read_time(table: pa.Table, rows: np.ndarray, name: str) -> np.ndarray:
+    """The ``time`` column in seconds (float or ISO-8601, ``io.timeparse``); a bad cell is a
+    :func:`cell_error`."""
+    try:
+        return time_to_seconds(table.column("time"))
+    except CellError as exc:
+        raise cell_error(name, rows, "time", exc) from None
+
+
 def read_csv_table(path: Path, wanted: Mapping[str, bool], text: set[str]) -> pa.Table:
     """The ``wanted`` columns (name -> required) of CSV file ``path`` as an Arrow table, the
     ``text`` ones as strings and the rest as float64 where they parse (else as text, for the
@@ -229,13 +245,9 @@ def _assemble(settings: SensorSettings, table: pa.Table) -> SensorLog:
         rows = rows[keep.to_numpy(zero_copy_only=False)]
 
     def fail(column: str, exc: CellError) -> DataError:
-        where = "" if exc.index is None else f"row {rows[exc.index]}, "
-        return DataError(f"{name}: {where}column '{column}': {exc.problem}")
+        return cell_error(name, rows, column, exc)
 
-    try:
-        time = time_to_seconds(table.column("time"))
-    except CellError as exc:
-        raise fail("time", exc) from None
+    time = read_time(table, rows, name)
 
     num_req, num_opt = NUMERIC_COLUMNS[kind]
     factor = ANGLE_TO_RADIANS[settings.angle_unit]
