@@ -27,7 +27,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-import rangeproc.pipeline
+import rangeproc.stages.fuse
 import rangeproc.report.figures
 from conftest import keep_sensors
 from rangeproc.errors import DataError, NumericalError, RangeprocError
@@ -322,7 +322,7 @@ def test_errors_inside_the_pipeline(cli, explain, scenario, monkeypatch, exc, co
     def fail(*args, **kwargs):
         raise exc
 
-    monkeypatch.setattr(rangeproc.pipeline, "fuse_target", fail)
+    monkeypatch.setattr(rangeproc.stages.fuse, "fuse_target", fail)
     before = listing(scenario)
     result = cli(["run", scenario / CONFIG])
     assert_one_error_line(result, explain, code, *needles)
@@ -331,13 +331,13 @@ def test_errors_inside_the_pipeline(cli, explain, scenario, monkeypatch, exc, co
 
 DEBUG_SCRIPT = textwrap.dedent("""
     import sys
-    import rangeproc.pipeline
+    import rangeproc.stages.fuse
     from rangeproc.cli import main
 
     def fail(*args, **kwargs):
         raise RuntimeError("boom from fuse_target")
 
-    rangeproc.pipeline.fuse_target = fail
+    rangeproc.stages.fuse.fuse_target = fail
     main(sys.argv[1:], prog_name="rangeproc")
 """)
 
