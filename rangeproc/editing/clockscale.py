@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from rangeproc.timescale import UNIX_RANGE   # s, the Unix scale (1973 to 2100)
+from rangeproc.timescale import on_unix_scale
 
 DAY = 86400.0                         #: s
 WEEK = 7 * DAY                        #: s
@@ -36,7 +36,7 @@ def clock_scale(t: np.ndarray) -> str:
     """"unix", "day" (seconds of day), "week" (GPS seconds of week) or "unknown" for stamps
     ``t`` (s), judged from their first and last values."""
     lo, hi = float(np.min(t)), float(np.max(t))
-    if UNIX_RANGE[0] <= lo and hi < UNIX_RANGE[1]:
+    if on_unix_scale(lo, hi):
         return "unix"
     if 0.0 <= lo and hi <= SOD_MAX:
         return "day"
@@ -117,7 +117,7 @@ def subunit_hint(raw: np.ndarray) -> str:
     ``raw`` (s as read, before any offset) are Unix time in a sub-second unit, else ''."""
     lo, hi = float(np.min(raw)), float(np.max(raw))
     for name, factor in SUBUNITS:
-        if UNIX_RANGE[0] <= lo * factor and hi * factor < UNIX_RANGE[1]:
+        if on_unix_scale(lo * factor, hi * factor):
             start = f"{utc(lo * factor):%Y-%m-%d %H:%M:%S}"
             return (f": they look like Unix {name} (from UTC {start}); the time column must be "
                     "in seconds")

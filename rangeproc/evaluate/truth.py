@@ -34,6 +34,7 @@ from rangeproc.evaluate.origin import ORIGIN_FORM, Origin, run_origin
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.io.readers import cell_error, read_csv_table, read_parquet_table, read_time
 from rangeproc.io.timeparse import CellError, clean_strings, to_float
+from rangeproc.timescale import on_unix_scale
 
 log = logging.getLogger(__name__)
 
@@ -44,8 +45,6 @@ TRUTH_FORMAT = ("time (float s or ISO-8601 with Z/offset); e, n, u (range ENU m)
                 "height (WGS-84 deg, m); optional ve, vn, vu (m/s); optional target_id")
 _SUFFIXES = (".csv", ".txt", ".parquet", ".pq")
 _WANTED = {"time": True, "target_id": False, **dict.fromkeys(ENU + GEODETIC + VELOCITY, False)}
-#: Unix seconds shown also as UTC in messages (1973 .. 2286): a plausible ISO-derived time
-_UNIX_SHOWN = (1.0e8, 1.0e10)
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -269,9 +268,10 @@ def check_overlap(fused_time: np.ndarray, truth: Truth, fused_name: str) -> None
 
 
 def span_text(t0: float, t1: float) -> str:
-    """``"t0 .. t1 s"``, with the UTC instants when the times look like Unix seconds."""
+    """``"t0 .. t1 s"``, with the UTC instants when the times are on the Unix scale
+    (``rangeproc.timescale``, the rule every output follows)."""
     text = f"{t0:.3f} .. {t1:.3f} s"
-    if _UNIX_SHOWN[0] <= t0 and t1 <= _UNIX_SHOWN[1]:
+    if on_unix_scale(t0, t1):
         text += f" ({_utc(t0)} .. {_utc(t1)})"
     return text
 
