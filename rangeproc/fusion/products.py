@@ -53,10 +53,7 @@ def _sensor_epochs(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
 def sensors_per_epoch(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
                       sensor_used: np.ndarray) -> np.ndarray:
     """(K,) distinct sensors with a used row in [t - T/2, t + T/2) around each grid epoch."""
-    count = np.zeros(len(grid_t), dtype=np.int64)
-    for mask in _sensor_epochs(grid_t, rate_hz, t_used, sensor_used).values():
-        count += mask
-    return count
+    return _count(_sensor_epochs(grid_t, rate_hz, t_used, sensor_used), len(grid_t))
 
 
 def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
@@ -65,21 +62,44 @@ def epoch_provenance(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
     """Per output epoch: the comma-separated ids of the sensors with a used row within the
     output interval around it (K,) and the time (s) to the nearest used row of any sensor (K,),
     rounded to :data:`TIME_RESOLUTION` (finer digits are the time scale's float rounding)."""
+    _, names, gap = epoch_bookkeeping(grid_t, rate_hz, t_used, sensor_used, sensor_ids)
+    return names, gap
+
+
+def epoch_bookkeeping(grid_t: np.ndarray, rate_hz: float, t_used: np.ndarray,
+                      sensor_used: np.ndarray, sensor_ids: tuple[str, ...]
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`sensors_per_epoch` and :func:`epoch_provenance` from one matching of the rows
+    to the epochs: (K,) sensor counts, (K,) sensor ids, (K,) s to the nearest used row."""
     k = grid_t.size
+    have = _sensor_epochs(grid_t, rate_hz, t_used, sensor_used) if k else {}
     names = np.full(k, "", dtype=object)
-    if k == 0:
-        return names, np.zeros(0)
-    for sensor, have in _sensor_epochs(grid_t, rate_hz, t_used, sensor_used).items():
+    for sensor, mask in have.items():
         sid = sensor_ids[sensor]
-        names[have] = [f"{n},{sid}" if n else sid for n in names[have]]
+        names[mask] = [f"{n},{sid}" if n else sid for n in names[mask]]
+    return _count(have, k), names, _nearest_row_gap(grid_t, t_used)
+
+
+def _count(have: dict[int, np.ndarray], k: int) -> np.ndarray:
+    count = np.zeros(k, dtype=np.int64)
+    for mask in have.values():
+        count += mask
+    return count
+
+
+def _nearest_row_gap(grid_t: np.ndarray, t_used: np.ndarray) -> np.ndarray:
+    """(K,) s from each epoch to the nearest used row, rounded to :data:`TIME_RESOLUTION`."""
+    k = grid_t.size
+    if k == 0:
+        return np.zeros(0)
     ts = np.sort(t_used)
     if ts.size == 0:
-        return names, np.full(k, np.inf)
+        return np.full(k, np.inf)
     j = np.clip(np.searchsorted(ts, grid_t), 1, ts.size - 1) if ts.size > 1 else np.zeros(k, int)
     gap = np.abs(ts[j] - grid_t)
     if ts.size > 1:
         gap = np.minimum(gap, np.abs(ts[j - 1] - grid_t))
-    return names, np.round(gap, 6)
+    return np.round(gap, 6)
 
 
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
@@ -102,9 +122,8 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     t, x, P = t[keep], x[keep], P[keep]
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
-    ns = sensors_per_epoch(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc])
-    names, gap = epoch_provenance(t, rate_hz, result.batch.t[acc], result.batch.sensor[acc],
-                                  result.batch.sensor_ids)
+    ns, names, gap = epoch_bookkeeping(t, rate_hz, result.batch.t[acc],
+                                       result.batch.sensor[acc], result.batch.sensor_ids)
     prob = {}
     if result.model_prob is not None:
         for j, name in enumerate(result.model_names):
