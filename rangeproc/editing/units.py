@@ -48,13 +48,18 @@ MIN_VALUES = 5              #: values needed before a whole sensor is suspected
 
 @dataclass(frozen=True)
 class UnitSuspicion:
-    """A sensor whose every angle also fits the smaller unit ``likely``: ``text`` is the one
-    line that says so (file, configured unit, the values' ranges)."""
+    """A sensor whose every angle also fits the smaller unit ``likely``: ``finding`` says so
+    (file, configured unit, the values' ranges); :attr:`text` is the warning line, the finding
+    with its advice."""
 
     sensor_id: str
     configured: str
     likely: str
-    text: str
+    finding: str
+
+    @property
+    def text(self) -> str:
+        return f"{self.finding} (set angle_unit = \"{self.likely}\" if so)"
 
 
 def _fits(values: np.ndarray, unit: str, circular: bool) -> np.ndarray:
@@ -137,8 +142,7 @@ def angle_unit_check(log: SensorLog, s: SensorSettings) -> UnitSuspicion | None:
                        for name, (v, _) in measured.items())
     return UnitSuspicion(
         s.id, unit, likely,
-        f"{s.file.name}: angle_unit = \"{unit}\" but {ranges}: the values look like {likely} "
-        f"(set angle_unit = \"{likely}\" if so)")
+        f"{s.file.name}: angle_unit = \"{unit}\" but {ranges}: the values look like {likely}")
 
 
 def angle_unit_checks(sensors: Sequence[SensorSettings], logs: Mapping[str, SensorLog]

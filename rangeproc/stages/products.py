@@ -91,7 +91,7 @@ def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
         if sid in suspicions:
             u = suspicions[sid]
             raise DataError(
-                f"{u.text.split(' (set angle_unit')[0]}, and read as {u.configured} its rows sit "
+                f"{u.finding}, and read as {u.configured} its rows sit "
                 f"{f.distance_m / 1e3:.3g} km from every other sensor's view of the objects at "
                 f"the same times ({', '.join(f.others)}): set angle_unit = \"{u.likely}\"")
     said: set[str] = set()
