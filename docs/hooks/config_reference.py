@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -31,24 +30,14 @@ def _markdown() -> str:
     return config_reference_markdown()
 
 
-def _generated_file(config: Any, uri: str, text: str) -> Any:
-    from mkdocs.structure.files import File
-    if hasattr(File, "generated"):                  # MkDocs >= 1.6: a virtual file
-        return File.generated(config, uri, content=text)
-    root = Path(tempfile.gettempdir()) / "rangeproc-docs-generated"   # older MkDocs
-    path = root / uri
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
-    return File(uri, str(root), config["site_dir"], config["use_directory_urls"])
-
-
 def on_files(files: Any, config: Any, **_: Any) -> Any:
     """MkDocs ``on_files``: add the generated config reference (replacing any file of the
     same path)."""
+    from mkdocs.structure.files import File   # MkDocs >= 1.6 (the docs extra)
     old = files.get_file_from_path(URI)
     if old is not None:
         files.remove(old)
-    files.append(_generated_file(config, URI, _markdown()))
+    files.append(File.generated(config, URI, content=_markdown()))
     return files
 
 

@@ -31,7 +31,6 @@ import json
 import math
 import statistics
 import sys
-import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -589,20 +588,10 @@ def render_all(measurements: Path = MEASUREMENTS) -> dict[str, str]:
 
 
 # ----------------------------------------------------------------------- MkDocs hook
-def _generated_file(config: Any, uri: str, text: str) -> Any:
-    from mkdocs.structure.files import File
-    if hasattr(File, "generated"):                  # MkDocs >= 1.6: a virtual file
-        return File.generated(config, uri, content=text)
-    root = Path(tempfile.gettempdir()) / "rangeproc-docs-generated"   # older MkDocs
-    path = root / uri
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
-    return File(uri, str(root), config["site_dir"], config["use_directory_urls"])
-
-
 def on_files(files: Any, config: Any, **_: Any) -> Any:
     """MkDocs ``on_files``: add the generated validation pages (replacing any file of the
     same path) and leave the hook sources out of the site."""
+    from mkdocs.structure.files import File   # MkDocs >= 1.6 (the docs extra)
     docs_dir = Path(config["docs_dir"])
     for f in list(files):
         uri = getattr(f, "src_uri", f.src_path).replace("\\", "/")
@@ -612,7 +601,7 @@ def on_files(files: Any, config: Any, **_: Any) -> Any:
         old = files.get_file_from_path(uri)
         if old is not None:
             files.remove(old)
-        files.append(_generated_file(config, uri, text))
+        files.append(File.generated(config, uri, content=text))
     return files
 
 
