@@ -163,7 +163,7 @@ def first_call_child(n: int) -> None:
     print(json.dumps({"import_s": t1 - t0, "first_call_s": time.perf_counter() - t2}))
 
 
-def time_rangeproc(args: tuple, reps: int, kernel=peers.rangeproc_kernel
+def time_rangeproc(args, reps: int, kernel=peers.rangeproc_kernel
                    ) -> tuple[float, float, list[float], peers.Estimates]:
     """First call (compilation from the cache), then the median of ``reps`` timed calls of the
     rangeproc ``kernel``; returns (first_s, median_s, all times, estimates of the last call)."""
@@ -240,7 +240,7 @@ def filter_rows(a: argparse.Namespace, d: peers.RadarData, ekf_us: float, ukf_us
     from rangeproc.fusion.passes import imm_generator
     from rangeproc.settings import IMM_MODELS
     codes = np.array([IMM_MODELS.index(m) for m in p.imm_models])
-    imm_args = (*peers.rangeproc_inputs(d)[:16], codes,
+    imm_args = (*peers.rangeproc_inputs(d).imm_args(), codes,
                 imm_generator(len(codes), p.imm_sojourn), np.full(len(codes), 1 / len(codes)))
     first_s, s, times, _ = time_rangeproc(imm_args, a.reps, peers.rangeproc_imm_kernel)
     us = s / len(d.t) * 1e6

@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
+from typing import NamedTuple
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 
@@ -98,17 +99,31 @@ def radar_data(n: int, seed: int = 1) -> RadarData:
 # rangeproc. ADAPT HERE when the kernel signatures change: rangeproc_inputs builds the arrays
 # (not timed), rangeproc_kernel is the timed call, rangeproc_estimates unpacks its results.
 # ---------------------------------------------------------------------------------------------
+class RangeprocCall(NamedTuple):
+    """One timed rangeproc call: ``run_filter``'s three arguments."""
+
+    rows: object
+    prior: object
+    settings: object
+
+    def imm_args(self) -> tuple:
+        """The 16 leading positional arguments of ``imm_forward`` (rows, prior, q, gate,
+        divergence guard, no linearisation trajectory)."""
+        r, p, s = self.rows, self.prior, self.settings
+        return (*r, p.x0, p.P0, p.q_steps, s.gate, s.reset_after, s.reset_inflation,
+                np.empty((0, p.x0.shape[0])))
+
+
 def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
                      maneuver_norm: float = 0.0, stf: np.ndarray | None = None,
-                     spl: np.ndarray | None = None) -> tuple:
-    """Positional arguments of ``kalman_forward`` for one radar at the origin, gating off;
-    ``method`` 0 = EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the
-    sigma points :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise;
-    ``maneuver_norm`` > 0: seed 004's norm constraint at every epoch (m/s^2); ``stf``: seed
-    001's strong-tracking parameters (``rangeproc.estimation.fading``), None = off; ``spl``:
-    seed 000's spline-filter anomaly quantiles (``rangeproc.estimation.spline_filter``), None =
-    off."""
-    from rangeproc.estimation.forward import NO_FADING, NO_SPLINE
+                     spl: np.ndarray | None = None) -> RangeprocCall:
+    """``run_filter``'s arguments for one radar at the origin, gating off; ``method`` 0 =
+    EKF, 1 = UKF (``rangeproc.estimation.forward.EKF`` / ``UKF``) with the sigma points
+    :data:`UKF_PARAMS`; ``adapt_window`` > 0: Sage-Husa adaptive noise; ``maneuver_norm`` > 0:
+    seed 004's norm constraint at every epoch (m/s^2); ``stf``: seed 001's strong-tracking
+    parameters (``rangeproc.estimation.fading``), None = off; ``spl``: seed 000's
+    spline-filter anomaly quantiles (``rangeproc.estimation.spline_filter``), None = off."""
+    from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings
     from rangeproc.models.measurement import SPHERICAL
     n = len(d.t)
     z = np.full((n, 6), np.nan)
@@ -116,34 +131,34 @@ def rangeproc_inputs(d: RadarData, method: int = 0, adapt_window: int = 0,
     sigma = np.ones((n, 6))
     sigma[:, :3] = SIGMA
     zeros3 = np.zeros((n, 3))
-    return (d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64), z, sigma,
-            zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, dtype=np.int64),
-            d.x0.copy(), d.P0.copy(), np.full(n, d.q), np.full(7, np.inf), 0, 1.0,
-            np.empty((0, 9)), int(method), UKF_PARAMS.copy(), int(adapt_window),
-            adapt_window > 0, float(maneuver_norm), NO_FADING if stf is None else stf,
-            NO_SPLINE if spl is None else spl)
+    rows = FilterRows(d.t, np.arange(n, dtype=np.int64), np.full(n, SPHERICAL, dtype=np.int64),
+                      z, sigma, zeros3, zeros3.copy(), np.tile(np.eye(3), (n, 1, 1)),
+                      np.zeros(n, dtype=np.int64))
+    prior = FilterPrior(d.x0.copy(), d.P0.copy(), np.full(n, d.q))
+    settings = FilterSettings(np.full(7, np.inf), method=int(method),
+                              ukf=tuple(UKF_PARAMS), adapt_window=int(adapt_window),
+                              adapt_mean=adapt_window > 0, maneuver_norm=float(maneuver_norm),
+                              fading=stf, spline=spl)
+    return RangeprocCall(rows, prior, settings)
 
 
-def rangeproc_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The timed call: forward pass (EKF or UKF update, as ``args`` say) + RTS smoother
+def rangeproc_kernel(call: RangeprocCall) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The timed call: forward pass (the family ``call.settings`` names) + RTS smoother
     (without the EM process-noise statistic, which the peers do not compute; with the spline
-    filter's jerk input when it ran). The motion
-    model is linear, so the unscented RTS smoother is this same RTS smoother. Returns
-    (xf, xs, Ps packed)."""
-    from rangeproc.estimation.forward import kalman_forward
+    filter's jerk input when it ran). The motion model is linear, so the unscented RTS
+    smoother is this same RTS smoother. Returns (xf, xs, Ps packed)."""
+    from rangeproc.estimation.forward import run_filter
     from rangeproc.estimation.rts import rts_smooth
-    epoch_t, q_steps = args[0], args[11]
-    out = kalman_forward(*args)
-    xf, Pf, jerk = out[0], out[1], out[10]
-    xs, Ps = rts_smooth(epoch_t, xf, Pf, q_steps, False, False, None,
-                        jerk if jerk.shape[0] else None)[:2]
-    return xf, xs, Ps
+    out = run_filter(*call)
+    xs, Ps = rts_smooth(call.rows.epoch_t, out.xf, out.Pf, call.prior.q_steps, False, False,
+                        None, out.jerk if out.jerk.shape[0] else None)[:2]
+    return out.xf, xs, Ps
 
 
 def rangeproc_imm_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The timed IMM call: ``args`` = the first 16 ``kalman_forward`` arguments (rows, prior,
-    q, gate, guard, ``x_lin``) + model codes, switching generator, initial probabilities;
-    IMM filter + Kim's smoother (pruning as the pipeline). Returns (xf, xs, Ps packed)."""
+    """The timed IMM call: ``args`` = ``RangeprocCall.imm_args()`` + model codes, switching
+    generator, initial probabilities; IMM filter + Kim's smoother (pruning as the pipeline).
+    Returns (xf, xs, Ps packed)."""
     from rangeproc.estimation.imm import imm_forward
     from rangeproc.estimation.imm_smoother import imm_smooth
     from rangeproc.fusion.passes import IMM_PRUNE

@@ -73,6 +73,16 @@ def gps_line_batch(t, rng, *, noise: float = 2.0, sigma: float = 2.0,
                                  track=np.full(t.size, -1), **rows))], ("G1",))
 
 
+def filter_parts(args: tuple):  # type: ignore[no-untyped-def]
+    """``(FilterRows, FilterPrior, settings keywords)`` of ``run_filter`` from the 16
+    positional arguments the compiled kernels (``imm_forward``) start with: the rows, ``x0``,
+    ``P0``, ``q_steps``, ``gate``, ``reset_after``, ``reset_inflation``, ``x_lin``."""
+    from rangeproc.estimation.forward import FilterPrior, FilterRows
+    x_lin = args[15] if len(args) > 15 and len(args[15]) else None
+    return (FilterRows(*args[:9]), FilterPrior(args[9], args[10], args[11], x_lin),
+            {"gate": args[12], "reset_after": args[13], "reset_inflation": args[14]})
+
+
 def sensor_subset(config_text: str, ids) -> str:  # type: ignore[no-untyped-def]
     """A config's text with only the [[sensors]] blocks of these ids (a faster run); every id
     must be there."""

@@ -1,9 +1,9 @@
-"""The divergence guard's covariance reset and its limits (used by ``estimation.forward``
-and ``estimation.imm``).
+"""The divergence guard: its per-row bookkeeping, covariance reset and limits (used by the
+forward kernels, ``estimation.forward_kernels``, and ``estimation.imm``).
 
 When one sensor's rows keep failing the gate, the filter re-opens the kinematic covariance so
 the track can re-acquire; these are the reset itself, its ceilings and the rule for partly
-accepted rows. See :func:`rangeproc.estimation.forward.kalman_forward` (``reset_after``).
+accepted rows. See :class:`rangeproc.estimation.forward.FilterSettings` (``reset_after``).
 """
 from __future__ import annotations
 
@@ -56,3 +56,33 @@ def reset_covariance(P: np.ndarray, factor: float) -> None:
 #: chi-square exceeds this many times the gate: far beyond a wild component, it is a track
 #: that the accepted components (an elevation after a manoeuvre) can no longer hold.
 PARTIAL_DIVERGENCE = 10.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def guard_row(nis: float, accepted: bool, mask: int, m: int, gate: np.ndarray, k: int,
+              sensor: int, consecutive: np.ndarray, reset_after: int, reset_inflation: float,
+              P: np.ndarray, last_reset: int) -> bool:
+    """Count one gated row of ``sensor`` for the divergence guard; reset ``P`` when due.
+
+    A row counts when it was rejected, or accepted only in part with a chi-square ``nis``
+    above ``PARTIAL_DIVERGENCE`` times the gate of its ``m`` components (other sensors' rows
+    may be accepted in between: an angle-only sensor can keep "agreeing" with a track that
+    drifted along its line of sight; nor does a radar's accepted elevation hold a track whose
+    range and azimuth it rejects after a manoeuvre). When one sensor has ``reset_after``
+    consecutive counted rows, the kinematic covariance is multiplied by
+    ``max(reset_inflation, 4 nis / gate)`` (at most ``MAX_RESET_INFLATION``, never beyond
+    ``RESET_CEILING``, and at most once per epoch ``k``: thousands of rows sharing one time
+    stamp must not compound it) so the track re-acquires instead of rejecting that sensor for
+    ever, and every sensor's count restarts. ``reset_after = 0`` disables it.
+
+    Returns whether it reset (the caller records ``k`` as ``last_reset``).
+    """
+    if accepted and (mask == 0 or nis <= PARTIAL_DIVERGENCE * gate[m]):
+        consecutive[sensor] = 0
+        return False
+    consecutive[sensor] += 1
+    if reset_after > 0 and consecutive[sensor] >= reset_after and last_reset != k:
+        reset_covariance(P, min(max(reset_inflation, 4.0 * nis / gate[m]), MAX_RESET_INFLATION))
+        consecutive[:] = 0
+        return True
+    return False

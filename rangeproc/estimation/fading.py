@@ -21,7 +21,7 @@ Wang, Sun & Zhou, "Strong tracking UKF", 2008):
 (the symmetric square-root placement keeps ``P_{k|k-1}`` symmetric; Zhou's ``Lambda F P F^T``
 is not). How it is fitted to a multi-sensor batch filter:
 
-* the filter works in whitened coordinates (``R = I``, ``forward.gated_update``), and all rows
+* the filter works in whitened coordinates (``R = I``, ``update.gated_update``), and all rows
   of one epoch (one time stamp, whatever their sensors) form the stacked measurement vector of
   that step, so ``eps`` is their stacked whitened innovation at the unfaded prediction and
   ``tr(beta R) = beta m`` for its ``m`` components. Only traces of V and N enter c_k, so V is
@@ -73,7 +73,7 @@ STF_MIN_SIGNAL = 0.1
 #: Upper bound of a fading factor: one epoch may inflate the covariance by at most this.
 MAX_FADING = 1e4
 
-#: Layout of the ``stf`` parameter array of ``kalman_forward``.
+#: Layout of the ``stf`` parameter array of ``forward_kernels.fading_forward``.
 STF_RHO, STF_BETA, STF_ALPHA = 0, 1, 2
 #: Length of ``stf``: rho, beta and the prior ratios of position, velocity, acceleration.
 STF_LEN = 5
@@ -81,8 +81,9 @@ STF_LEN = 5
 
 def fading_params(forgetting: float, weakening: float,
                   ratios: tuple[float, float, float]) -> np.ndarray:
-    """The ``stf`` argument of ``kalman_forward`` (layout ``STF_*``): forgetting factor rho,
-    weakening factor beta and the prior ratios alpha of position, velocity, acceleration."""
+    """The ``stf`` argument of ``fading_forward`` (``FilterSettings.fading``; layout
+    ``STF_*``): forgetting factor rho, weakening factor beta and the prior ratios alpha of
+    position, velocity, acceleration."""
     stf = np.empty(STF_LEN)
     stf[STF_RHO] = forgetting
     stf[STF_BETA] = weakening

@@ -7,7 +7,7 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
    the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
 2. model-conditioned prediction with the model's own transition and process noise;
 3. the epoch's rows update every model by the same compiled update as the single filter
-   (``forward.row_moments`` + ``forward.gated_update``: whitening, Joseph form, chi-square
+   (``moments.row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
    gating per row, then per component), accumulating each model's innovation likelihood;
 4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination.
 
@@ -48,7 +48,7 @@ from rangeproc.estimation.divergence import (
     PARTIAL_DIVERGENCE,
     reset_covariance,
 )
-from rangeproc.estimation.forward import row_workspace, update_row
+from rangeproc.estimation.update import row_workspace, update_row
 from rangeproc.estimation.moments import EKF, add_linearisation_noise, row_moments
 from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import pack
@@ -264,9 +264,10 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 Lam: np.ndarray, mu0: np.ndarray):
     """IMM filter over all epochs (module docstring), EKF updates.
 
-    Arguments as ``forward.kalman_forward`` (rows, prior, ``q_steps``, gate, divergence guard,
-    ``x_lin`` linearisation states or zero rows) plus ``codes`` (r,) model codes, ``Lam``
-    (r, r) switching generator (1/s) and ``mu0`` (r,) initial model probabilities.
+    Arguments as the forward kernels (``forward_kernels.ekf_forward``: rows, prior,
+    ``q_steps``, gate, divergence guard, ``x_lin`` linearisation states or zero rows) plus
+    ``codes`` (r,) model codes, ``Lam`` (r, r) switching generator (1/s) and ``mu0`` (r,)
+    initial model probabilities.
 
     Returns:
         xf (E, n) combined filtered states, Pf (E, n(n+1)/2) packed; xm (E, r, n), Pm

@@ -21,7 +21,7 @@ from rangeproc.models.measurement import (
 )
 
 
-#: Update methods of :func:`kalman_forward`.
+#: Measurement update methods (``estimation.forward.FilterSettings.method``).
 EKF = 0
 UKF = 1
 

@@ -15,11 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.parallel import thread_map
-
-#: UKF parameters argument (unused by the EKF the likelihood search runs).
-EKF_UNUSED_UKF = np.array([1.0, 2.0, -6.0])
 
 #: Largest number of rows the likelihood search runs over, unless the span needs more for
 #: :data:`MIN_SEARCH_RATE_HZ`.
@@ -62,16 +59,15 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
     t = batch.t[rows]
     sub_epochs = np.unique(t)
     meas_epoch = np.searchsorted(sub_epochs, t).astype(np.int64)
-    no_lin = np.empty((0, x0.shape[0]))
+    rows_sub = FilterRows(sub_epochs, meas_epoch, batch.model[rows], batch.z[rows],
+                          batch.sigma[rows], batch.s[rows], batch.sv[rows], batch.Qr[rows],
+                          batch.sensor[rows])
     grid = np.asarray(q_grid, dtype=float)
-    sub = (batch.model[rows], batch.z[rows], batch.sigma[rows], batch.s[rows],
-           batch.sv[rows], batch.Qr[rows], batch.sensor[rows])
+    settings = FilterSettings(gate, reset_after=reset_after, reset_inflation=reset_inflation)
 
     def row_loglik(q: float) -> np.ndarray:
-        return kalman_forward(
-            sub_epochs, meas_epoch, *sub, x0, P0, np.full(len(sub_epochs), q), gate,
-            reset_after, reset_inflation, no_lin, EKF, EKF_UNUSED_UKF, 0, False, 0.0,
-            NO_FADING, NO_SPLINE)[7]
+        prior = FilterPrior(x0, P0, np.full(len(sub_epochs), q))
+        return run_filter(rows_sub, prior, settings).ll_rows
 
     # the candidates side by side (rangeproc.parallel): the filter releases the GIL
     ll_rows = np.stack(thread_map(row_loglik, [float(q) for q in grid]))

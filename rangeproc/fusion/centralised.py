@@ -138,7 +138,8 @@ class EstimatorSettings:
         seconds); q_search_rows: at most this many rows (evenly spread) in it, or
         ``tuning.MIN_SEARCH_RATE_HZ`` per second of the span when that is more.
     q_window: window (s) of the local process-noise estimate.
-    reset_after / reset_inflation: divergence guard of the filter (see ``kalman_forward``).
+    reset_after / reset_inflation: divergence guard of the filter (see
+        ``estimation.forward.FilterSettings``).
     ukf: the UKF's ``(alpha, beta, kappa)``, kappa = 3 - n per Ye and Cui.
     calibration: what the registration may estimate per sensor index (``fusion.registration``;
         empty: no calibration); refraction: the refraction removed from the rows

@@ -16,7 +16,13 @@ import numpy as np
 
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.fading import fading_params
-from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, ForwardOutput, kalman_forward
+from rangeproc.estimation.forward import (
+    FilterOutput,
+    FilterPrior,
+    FilterRows,
+    FilterSettings,
+    run_filter,
+)
 from rangeproc.estimation.imm import IMMOutput, imm_forward
 from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.linalg import unpack
@@ -66,7 +72,7 @@ class PassResult(NamedTuple):
 
 class GateResult(NamedTuple):
     """A forward filter's per-row gate results: ``nis``, ``dof``, ``rejected`` bit masks (N,)
-    and the divergence guard's ``n_resets`` (of ``ForwardOutput`` or ``IMMOutput``)."""
+    and the divergence guard's ``n_resets`` (of ``FilterOutput`` or ``IMMOutput``)."""
 
     nis: np.ndarray
     dof: np.ndarray
@@ -74,7 +80,7 @@ class GateResult(NamedTuple):
     n_resets: int
 
 
-def _gates(fwd: ForwardOutput | IMMOutput) -> GateResult:
+def _gates(fwd: FilterOutput | IMMOutput) -> GateResult:
     return GateResult(fwd.nis, fwd.dof, fwd.rejected, fwd.n_resets)
 
 
@@ -83,7 +89,7 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
     """One filter + smoother pass with settings ``st`` (``EstimatorSettings``: its forward
     filter ``st.family``, the ``[processing]`` values by name); returns the smoothed track,
     gate results and residuals."""
-    family, p = st.family, st.processing
+    family = st.family
     model_prob = None
     try:
         if family.imm_models:
@@ -91,16 +97,11 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
                                                  st, x_lin)
             em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
         else:
-            fwd = ForwardOutput._make(kalman_forward(
-                epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv,
-                batch.Qr, batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation,
-                x_lin, method=family.method, ukf=np.asarray(st.ukf, dtype=np.float64),
-                adapt_window=p.sage_husa_window if family.sage_husa else 0,
-                adapt_mean=p.sage_husa_mean, maneuver_norm=maneuver_norm,
-                stf=fading_params(p.stukf_forgetting, p.stukf_weakening, p.stukf_ratios)
-                if family.strong_tracking else NO_FADING,
-                spl=spline_params(p.spline_anomaly_probability) if family.spline
-                else NO_SPLINE))
+            fwd = run_filter(
+                FilterRows(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
+                           batch.sv, batch.Qr, batch.sensor),
+                FilterPrior(x0, P0, q, x_lin if len(x_lin) == len(epoch_t) else None),
+                filter_settings(st, gate, maneuver_norm))
             gates, sigma_used, knot, fade = _gates(fwd), fwd.sigma_used, fwd.knot, fwd.fade
             if knot.shape[0]:
                 log.info("spline filter: %d anomaly knots", int(knot.sum()))
@@ -123,6 +124,20 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
     return PassResult(xs, Ps, em, gates.nis, gates.dof, component_use(batch.z, gates.rejected),
                       res, hph, gates.n_resets, batch, model_prob,
                       epoch_t[knot] if knot.shape[0] else epoch_t[:0])
+
+
+def filter_settings(st, gate: np.ndarray, maneuver_norm: float = 0.0) -> FilterSettings:
+    """The forward filter's settings of a pass with estimator settings ``st``
+    (``EstimatorSettings``): its family's method and parameters, the gate, the guard."""
+    family, p = st.family, st.processing
+    return FilterSettings(
+        gate, method=family.method, ukf=tuple(st.ukf), reset_after=st.reset_after,
+        reset_inflation=st.reset_inflation,
+        adapt_window=p.sage_husa_window if family.sage_husa else 0,
+        adapt_mean=p.sage_husa_mean, maneuver_norm=maneuver_norm,
+        fading=fading_params(p.stukf_forgetting, p.stukf_weakening, p.stukf_ratios)
+        if family.strong_tracking else None,
+        spline=spline_params(p.spline_anomaly_probability) if family.spline else None)
 
 
 def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.divergence import MAX_RESET_INFLATION
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN
@@ -34,10 +34,12 @@ def test_thousands_of_rejected_rows_at_one_epoch_reset_once_and_smooth() -> None
     P0 = np.diag([100.0] * 3 + [25.0] * 3 + [1.0] * 3)
     gate = np.full(7, np.inf)
     gate[1:] = [15.1, 18.4, 21.1, 23.5, 25.7, 27.9]
-    xf, Pf, nis, dof, rej, ll, n_resets, *_ = kalman_forward(
-        epoch_t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
-        np.zeros(t.size, np.int64), x0, P0, np.full(epoch_t.size, 1.0), gate, 50, 100.0,
-        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING, NO_SPLINE)
+    out = run_filter(
+        FilterRows(epoch_t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"],
+                   a["Qr"], np.zeros(t.size, np.int64)),
+        FilterPrior(x0, P0, np.full(epoch_t.size, 1.0)),
+        FilterSettings(gate, reset_after=50, reset_inflation=100.0))
+    xf, Pf, n_resets = out.xf, out.Pf, out.n_resets
     assert n_resets == 1
     assert np.isfinite(Pf).all() and np.isfinite(xf).all()
     assert Pf.max() < MAX_RESET_INFLATION * 1e3
@@ -67,12 +69,12 @@ def _radar_pass(x0: np.ndarray, P0: np.ndarray, seconds: float = 60.0):
     meas_epoch = np.arange(t.size, dtype=np.int64)
     gate = np.full(7, np.inf)
     gate[1:] = [15.1, 18.4, 21.1, 23.5, 25.7, 27.9]
-    xf, Pf, nis, dof, rej, ll, n_resets, *_ = kalman_forward(
-        t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
-        np.zeros(t.size, np.int64), x0, P0, np.full(t.size, 1.0), gate, 50, 100.0,
-        np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0,
-        False, 0.0, NO_FADING, NO_SPLINE)
-    return t, truth, xf, n_resets
+    out = run_filter(
+        FilterRows(t, meas_epoch, a["model"], a["z"], a["sigma"], a["s"], a["sv"], a["Qr"],
+                   np.zeros(t.size, np.int64)),
+        FilterPrior(x0, P0, np.full(t.size, 1.0)),
+        FilterSettings(gate, reset_after=50, reset_inflation=100.0))
+    return t, truth, out.xf, out.n_resets
 
 
 def test_a_track_started_on_the_wrong_line_of_sight_is_recovered() -> None:

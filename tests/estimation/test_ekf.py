@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.centralised import gate_thresholds
@@ -36,10 +36,10 @@ def _radar_rows(rng, truth, sig, site=np.zeros(3), Qr=np.eye(3)):
 def _run(t, z, sigma, x0, P0, q, gate, site=np.zeros(3), Qr=np.eye(3), reset_after=0):
     n = len(t)
     s = np.tile(site, (n, 1))
-    return kalman_forward(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s,
-                       np.zeros((n, 3)), np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64), x0, P0,
-                       np.full(n, float(q)), gate, reset_after, 100.0, np.empty((0, 9)), 0,
-                          np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING, NO_SPLINE)
+    rows = FilterRows(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, s, np.zeros((n, 3)),
+                      np.tile(Qr, (n, 1, 1)), np.zeros(n, np.int64))
+    return run_filter(rows, FilterPrior(x0, P0, np.full(n, float(q))),
+                      FilterSettings(gate, reset_after=reset_after, reset_inflation=100.0))
 
 
 def test_ekf_matches_filterpy_extended_kalman_filter():
@@ -52,8 +52,9 @@ def test_ekf_matches_filterpy_extended_kalman_filter():
     z, sigma = _radar_rows(rng, truth, sig)
     t = np.arange(len(truth)) * dt
     P0 = np.diag([100.0] * 3 + [400.0] * 3 + [25.0] * 3)
-    xf, Pf, *_ = _run(t, z, sigma, x0 + 10.0 * np.r_[1, 1, 1, 0, 0, 0, 0, 0, 0], P0, q,
-                      np.full(7, np.inf))
+    out = _run(t, z, sigma, x0 + 10.0 * np.r_[1, 1, 1, 0, 0, 0, 0, 0, 0], P0, q,
+               np.full(7, np.inf))
+    xf, Pf = out.xf, out.Pf
     F, Q = ca_transition_py(dt, q)
     ekf = filterpy.ExtendedKalmanFilter(dim_x=9, dim_z=3)
     ekf.x = x0 + 10.0 * np.r_[1, 1, 1, 0, 0, 0, 0, 0, 0]
@@ -92,8 +93,8 @@ def test_gate_rejects_wild_points_and_carries_prediction():
     z[wild, 0] += rng.choice([-1, 1], 40) * rng.uniform(200, 500, 40)
     t = np.arange(len(truth)) * dt
     P0 = np.diag([100.0] * 3 + [400.0] * 3 + [25.0] * 3)
-    xf, Pf, nis, dof, rej, ll, resets, *_ = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999),
-                                              reset_after=50)
+    out = _run(t, z, sigma, x0, P0, q, gate_thresholds(0.9999), reset_after=50)
+    xf, rej, resets = out.xf, out.rejected, out.n_resets
     # the wild range is rejected, the row's good angles are still used (component gating)
     assert ((rej[wild] & 1) == 1).all()
     assert ((rej[wild] & 0b110) == 0).mean() > 0.95
@@ -121,7 +122,8 @@ def test_100k_step_radar_only_run_stays_consistent():
     sigma[:, :3] = sig
     t = np.arange(n) * dt
     P0 = np.diag([100.0] * 3 + [100.0] * 3 + [1.0] * 3)
-    xf, Pf, nis, dof, acc, ll, resets, *_ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+    out = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+    xf, Pf, nis = out.xf, out.Pf, out.nis
     assert np.isfinite(xf).all()
     # filtered NEES (position) over the second half: mean within the chi-square band
     P = np.empty((9, 9))
@@ -159,7 +161,8 @@ def test_monte_carlo_smoothed_nees_inside_chi2_bounds():
         start = x0 + np.linalg.cholesky(P0) @ rng.standard_normal(9)
         truth = _truth(rng, n, dt, q, start)
         z, sigma = _radar_rows(rng, truth, sig)
-        xf, Pf, *_ = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+        out = _run(t, z, sigma, x0, P0, q, np.full(7, np.inf))
+        xf, Pf = out.xf, out.Pf
         xs, Ps, _ = rts_smooth(t, xf, Pf, np.full(len(t), float(q)))
         k = n // 2
         unpack(Ps[k], P)

@@ -4,11 +4,13 @@ import numpy as np
 import pytest
 
 from rangeproc.estimation.fading import MAX_FADING, STF_WARMUP, fading_factors
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, UKF, kalman_forward
+from rangeproc.estimation.forward import EKF, UKF, FilterSettings, run_filter
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.models.measurement import CARTESIAN
 from rangeproc.models.motion import ca_transition_py
+
+from conftest import filter_parts
 
 UKF_PARAMS = np.array([1.0, 2.0, -6.0])
 STF = np.array([0.95, 3.0, 1.0, 1.0, 1.0])
@@ -63,9 +65,11 @@ def test_fading_follows_the_manoeuvre_and_the_smoother_is_exact(method):
     the onset and tracks better; its RTS smoother equals the textbook smoother of the model the
     filter ran (P_pred = L^1/2 F P F^T L^1/2 + Q) to 1e-9."""
     t, pos, args = _manoeuvre()
-    xf0, Pf0 = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, NO_FADING, NO_SPLINE)[:2]
-    out = kalman_forward(*args, method, UKF_PARAMS, 0, False, 0.0, STF, NO_SPLINE)
-    xf, Pf, fade = out[0], out[1], out[9]
+    rows, prior, kw = filter_parts(args)
+    plain = run_filter(rows, prior, FilterSettings(method=method, ukf=UKF_PARAMS, **kw))
+    xf0, Pf0 = plain.xf, plain.Pf
+    out = run_filter(rows, prior, FilterSettings(method=method, ukf=UKF_PARAMS, fading=STF, **kw))
+    xf, Pf, fade = out.xf, out.Pf, out.fade
     faded_t = t[fade.max(axis=1) > 1.0]
     assert faded_t.size and faded_t.min() > t[STF_WARMUP]
     assert np.any((faded_t > 15.0) & (faded_t < 17.0))
@@ -90,8 +94,9 @@ def test_without_fading_stukf_is_the_ukf():
     (same arithmetic, no factor ever differs from 1)."""
     t, pos, args = _manoeuvre(seed=2)
     never = np.array([0.95, 1e300, 1.0, 1.0, 1.0])
-    a = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, never, NO_SPLINE)
-    b = kalman_forward(*args, UKF, UKF_PARAMS, 0, False, 0.0, NO_FADING, NO_SPLINE)
-    np.testing.assert_array_equal(a[9], 1.0)
-    np.testing.assert_allclose(a[0], b[0], atol=1e-10, rtol=0)
-    np.testing.assert_allclose(a[1], b[1], atol=1e-10, rtol=0)
+    rows, prior, kw = filter_parts(args)
+    a = run_filter(rows, prior, FilterSettings(method=UKF, ukf=UKF_PARAMS, fading=never, **kw))
+    b = run_filter(rows, prior, FilterSettings(method=UKF, ukf=UKF_PARAMS, **kw))
+    np.testing.assert_array_equal(a.fade, 1.0)
+    np.testing.assert_allclose(a.xf, b.xf, atol=1e-10, rtol=0)
+    np.testing.assert_allclose(a.Pf, b.Pf, atol=1e-10, rtol=0)

@@ -6,7 +6,7 @@ import pytest
 from filterpy.kalman import IMMEstimator, KalmanFilter
 from scipy.linalg import expm, logm
 
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterSettings, run_filter
 from rangeproc.estimation.imm import (
     CA,
     CT,
@@ -20,8 +20,15 @@ from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.passes import imm_generator
 from rangeproc.models.measurement import CARTESIAN
 
-UKF_UNUSED = np.array([1.0, 2.0, -6.0])
+from conftest import filter_parts
+
 SIGMA = 5.0
+
+
+def _ekf(args: tuple):  # type: ignore[no-untyped-def]
+    """The single CA filter (EKF) over the same 16 kernel arguments as ``imm_forward``."""
+    rows, prior, kw = filter_parts(args)
+    return run_filter(rows, prior, FilterSettings(**kw))
 
 
 def _rows(t: np.ndarray, pos: np.ndarray, seed: int, first_epoch: int = 0):
@@ -125,10 +132,10 @@ def test_one_model_is_that_models_filter_and_smoother(code):
     xs, Ps, mus = imm_smooth(t, out[2], out[3], out[4], out[5], args[11], codes,
                              np.zeros((1, 1)), 0.0)
     if code == CA:
-        ek = kalman_forward(*args, EKF, UKF_UNUSED, 0, False, 0.0, NO_FADING, NO_SPLINE)
-        np.testing.assert_allclose(out[0], ek[0], atol=1e-9, rtol=0)
-        np.testing.assert_allclose(out[1], ek[1], atol=1e-9, rtol=0)
-        xr, Pr, _ = rts_smooth(t, ek[0].copy(), ek[1].copy(), args[11])
+        ek = _ekf(args)
+        np.testing.assert_allclose(out[0], ek.xf, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(out[1], ek.Pf, atol=1e-9, rtol=0)
+        xr, Pr, _ = rts_smooth(t, ek.xf.copy(), ek.Pf.copy(), args[11])
         np.testing.assert_allclose(xs, xr, atol=1e-8, rtol=0)
         np.testing.assert_allclose(Ps, Pr, atol=1e-8, rtol=0)
     else:                                     # CV: the textbook smoother of the CV model
@@ -158,8 +165,8 @@ def test_model_probabilities_follow_the_turn_and_the_smoother_helps():
     turn = (t > 23.0) & (t < 38.0)
     straight = (t > 45.0) | ((t > 3.0) & (t < 18.0))
     assert mus[turn, 2].mean() > 0.5 and mus[straight, 0].mean() > 0.6
-    ek = kalman_forward(*args, EKF, UKF_UNUSED, 0, False, 0.0, NO_FADING, NO_SPLINE)
-    xr = rts_smooth(t, ek[0].copy(), ek[1].copy(), args[11])[0]
+    ek = _ekf(args)
+    xr = rts_smooth(t, ek.xf.copy(), ek.Pf.copy(), args[11])[0]
 
     def rmse(x):
         return float(np.sqrt(((x[:, :3] - pos) ** 2).sum(axis=1).mean()))

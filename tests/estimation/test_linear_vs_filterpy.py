@@ -4,7 +4,7 @@ import pytest
 
 filterpy_kf = pytest.importorskip("filterpy.kalman")
 
-from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.models.measurement import CARTESIAN
@@ -32,11 +32,11 @@ def _run_rangeproc(t, z, sigma, x0, P0, q):
     s = np.zeros((n, 3))
     Qr = np.tile(np.eye(3), (n, 1, 1))
     gate = np.full(7, np.inf)
-    xf, Pf, nis, dof, acc, ll, *_ = kalman_forward(
-        t, np.arange(n), np.full(n, CARTESIAN), z, sigma, s, s.copy(), Qr, np.zeros(n, np.int64),
-        x0, P0, np.full(n, float(q)), gate,
-        0, 1.0, np.empty((0, 9)), 0, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING,
-        NO_SPLINE)
+    out = run_filter(
+        FilterRows(t, np.arange(n), np.full(n, CARTESIAN), z, sigma, s, s.copy(), Qr,
+                   np.zeros(n, np.int64)),
+        FilterPrior(x0, P0, np.full(n, float(q))), FilterSettings(gate))
+    xf, Pf = out.xf, out.Pf
     xs, Ps, _ = rts_smooth(t, xf, Pf, np.full(len(t), float(q)))
     return xf, Pf, xs, Ps
 

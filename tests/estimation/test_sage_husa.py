@@ -5,11 +5,10 @@ import numpy as np
 import pytest
 
 from rangeproc.estimation.adaptive import SH_WARMUP
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.fusion.batch import empty_rows
 from rangeproc.models.measurement import CARTESIAN
 
-UKF_UNUSED = np.array([1.0, 2.0, -6.0])
 Q = 0.5
 
 
@@ -34,10 +33,10 @@ def run(t, a, truth, window: int, mean: bool = False):
     x0 = truth[0].copy()
     P0 = np.diag([25.0] * 3 + [4.0] * 3 + [1.0] * 3)
     gate = np.full(7, np.inf)
-    return kalman_forward(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
-                          a["Qr"], np.zeros(n, np.int64), x0, P0, np.full(n, Q), gate, 0, 1.0,
-                          np.empty((0, 9)), EKF, UKF_UNUSED, window, mean, 0.0, NO_FADING,
-                          NO_SPLINE)
+    rows = FilterRows(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
+                      a["Qr"], np.zeros(n, np.int64))
+    return run_filter(rows, FilterPrior(x0, P0, np.full(n, Q)),
+                      FilterSettings(gate, adapt_window=window, adapt_mean=mean))
 
 
 def test_window_bookkeeping_alone_changes_nothing() -> None:
@@ -45,15 +44,15 @@ def test_window_bookkeeping_alone_changes_nothing() -> None:
     t, a, truth = gps_case(SH_WARMUP - 1, 2.0, 2.0, seed=1)
     ekf = run(t, a, truth, 0)
     sh = run(t, a, truth, 100)
-    np.testing.assert_array_equal(ekf[0], sh[0])
-    np.testing.assert_array_equal(ekf[1], sh[1])
-    assert ekf[8].shape == (0, 6) and sh[8].shape == (t.size, 6)
+    np.testing.assert_array_equal(ekf.xf, sh.xf)
+    np.testing.assert_array_equal(ekf.Pf, sh.Pf)
+    assert ekf.sigma_used.shape == (0, 6) and sh.sigma_used.shape == (t.size, 6)
 
 
 @pytest.mark.parametrize("stated", [0.4, 2.0, 10.0])
 def test_adapted_sigma_recovers_the_true_noise(stated: float) -> None:
     t, a, truth = gps_case(3000, 2.0, stated, seed=2)
-    sigma_used = run(t, a, truth, 100)[8]
+    sigma_used = run(t, a, truth, 100).sigma_used
     late = sigma_used[1000:, :3]
     assert np.all(np.isfinite(late))
     assert np.median(late) == pytest.approx(2.0, rel=0.1)
@@ -66,7 +65,8 @@ def test_filtered_nees_is_consistent_with_wrong_stated_sigmas() -> None:
     for seed in range(8):
         t, a, truth = gps_case(600, 2.0, 0.5, seed=10 + seed)
         for window, out in ((100, nees_sh), (0, nees_ekf)):
-            xf, Pf = run(t, a, truth, window)[:2]
+            res = run(t, a, truth, window)
+            xf, Pf = res.xf, res.Pf
             e = xf[200:, :3] - truth[200:, :3]
             P = np.empty((len(e), 3, 3))
             # packed lower triangle, row-major: (0,0), (1,0), (1,1), (2,0), (2,1), (2,2)
@@ -91,11 +91,11 @@ def test_noise_mean_and_variance_are_told_apart() -> None:
     P0 = np.diag([1e-14] * 9)
 
     def sigma_east(mean: bool) -> float:
-        out = kalman_forward(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
-                             a["Qr"], np.zeros(n, np.int64), x0, P0, np.full(n, 1e-15),
-                             np.full(7, np.inf), 0, 1.0, np.empty((0, 9)), EKF, UKF_UNUSED,
-                             100, mean, 0.0, NO_FADING, NO_SPLINE)
-        return float(np.median(out[8][1000:, 0]))
+        rows = FilterRows(t, np.arange(n), a["model"], a["z"], a["sigma"], a["s"], a["sv"],
+                          a["Qr"], np.zeros(n, np.int64))
+        out = run_filter(rows, FilterPrior(x0, P0, np.full(n, 1e-15)),
+                         FilterSettings(np.full(7, np.inf), adapt_window=100, adapt_mean=mean))
+        return float(np.median(out.sigma_used[1000:, 0]))
 
     assert sigma_east(True) == pytest.approx(2.0, rel=0.15)
     assert sigma_east(False) == pytest.approx(np.hypot(2.0, 30.0), rel=0.15)

@@ -1,4 +1,4 @@
-"""Seed 000's self-adaptive spline filter inside ``kalman_forward``: the anomaly test flags the
+"""Seed 000's self-adaptive spline filter (``spline_forward``): the anomaly test flags the
 knot of a piecewise-cubic trajectory seen by 8 range-rate stations (the document's experiment,
 noise-free), the jerk input of the new segment is re-estimated, and with the option off (or
 unable to fire) the loop is exactly the plain filter."""
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from rangeproc.estimation.forward import EKF, NO_FADING, NO_SPLINE, kalman_forward
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.estimation.spline_filter import (
     SPL_TABLE,
@@ -57,25 +57,26 @@ def scene(seed: int = 3):
                       np.zeros(n, np.int64), x0, P0)
 
 
-def run(args, q: float, spl: np.ndarray):
+def run(args, q: float, spl: np.ndarray | None):
+    """The EKF over the scene's rows with the spline filter's quantiles ``spl`` (None:
+    the plain EKF)."""
     t = args[0]
-    return kalman_forward(*args, np.full(len(t), q), np.full(7, np.inf), 0, 1.0,
-                          np.empty((0, 9)), EKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0,
-                          NO_FADING, spl)
+    return run_filter(FilterRows(*args[:9]), FilterPrior(args[9], args[10], np.full(len(t), q)),
+                      FilterSettings(np.full(7, np.inf), spline=spl))
 
 
 def test_anomaly_fires_at_the_knot_only_and_the_new_jerk_is_estimated() -> None:
     t, truth, args = scene()
     q = 1e-3
     out = run(args, q, spline_params(0.999))
-    xf, Pf, fade, jerk, anomaly, knot = out[0], out[1], out[9], out[10], out[11], out[12]
+    xf, Pf, fade, jerk, anomaly, knot = out.xf, out.Pf, out.fade, out.jerk, out.anomaly, out.knot
     fired = t[knot]
     assert fired.size >= 1 and np.all((fired > KNOT) & (fired < KNOT + 1.5)), fired
     before = t < KNOT
     assert np.all(anomaly[before & (anomaly[:, 1] > 0), 0] < chi2.ppf(0.999, 8))
     np.testing.assert_array_equal(jerk[t <= fired[0]], 0.0)     # segment 1: no input
     np.testing.assert_allclose(jerk[-1], JERK2, atol=0.25)      # segment 2: re-estimated
-    plain = run(args, q, NO_SPLINE)[0]
+    plain = run(args, q, None).xf
     err = np.linalg.norm(xf[-40:, :3] - truth[-40:, :3], axis=1).mean()
     err_plain = np.linalg.norm(plain[-40:, :3] - truth[-40:, :3], axis=1).mean()
     assert err < 0.5 * err_plain, (err, err_plain)
@@ -86,17 +87,19 @@ def test_anomaly_fires_at_the_knot_only_and_the_new_jerk_is_estimated() -> None:
 
 def test_spline_that_cannot_fire_is_bit_identical_to_the_plain_filter() -> None:
     """The machinery alone (jerk input of zero, stacked statistic, residual RMS) changes no
-    bit of the filter; with ``NO_SPLINE`` the spline outputs are empty."""
+    bit of the filter (the spline kernel against the plain EKF kernel); without the spline
+    filter its outputs are empty."""
     _, _, args = scene(seed=4)
     never = spline_params(0.999)
     never[:] = np.inf
     a = run(args, 1e-2, never)
-    b = run(args, 1e-2, NO_SPLINE)
-    assert not a[12].any() and np.all(a[10] == 0.0)
-    for i in range(9):
-        np.testing.assert_array_equal(a[i], b[i])
-    assert b[10].shape == (0, 3) and b[11].shape == (0, 2) and b[12].shape == (0,)
-    assert b[9].shape == (0, 9)
+    b = run(args, 1e-2, None)
+    assert not a.knot.any() and np.all(a.jerk == 0.0)
+    for name in ("xf", "Pf", "nis", "dof", "rejected", "loglik", "n_resets", "ll_rows",
+                 "sigma_used"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert b.jerk.shape == (0, 3) and b.anomaly.shape == (0, 2) and b.knot.shape == (0,)
+    assert b.fade.shape == (0, 9)
 
 
 @pytest.mark.parametrize("p", [0.99, 0.999, 0.9999])

@@ -2,7 +2,14 @@
 import numpy as np
 import pytest
 
-from rangeproc.estimation.forward import NO_FADING, NO_SPLINE, UKF, kalman_forward
+from rangeproc.estimation.forward import (
+    EKF,
+    UKF,
+    FilterPrior,
+    FilterRows,
+    FilterSettings,
+    run_filter,
+)
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.models.measurement import SPHERICAL, measure_py, wrap_angle
@@ -38,11 +45,12 @@ def test_ukf_update_matches_filterpy_with_redrawn_sigma_points():
     x0 = truth[0] + np.r_[20.0, -20.0, 10.0, 2.0, -2.0, 1.0, 0.0, 0.0, 0.0]
     P0 = np.diag([400.0] * 3 + [25.0] * 3 + [4.0] * 3)
     q = np.full(n, 5.0)
-    xf, Pf, nis, *_ = kalman_forward(
-        t, np.arange(n), np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)), np.zeros((n, 3)),
-        np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64), x0, P0, q, np.full(7, np.inf),
-        0, 1.0, np.empty((0, 9)), UKF, np.array([alpha, beta, kappa]), 0, False,
-        0.0, NO_FADING, NO_SPLINE)
+    out = run_filter(
+        FilterRows(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)),
+                   np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64)),
+        FilterPrior(x0, P0, q),
+        FilterSettings(np.full(7, np.inf), method=UKF, ukf=(alpha, beta, kappa)))
+    xf, Pf = out.xf, out.Pf
 
     points = filterpy_kalman.MerweScaledSigmaPoints(9, alpha=alpha, beta=beta, kappa=kappa)
 
@@ -99,12 +107,9 @@ def test_ukf_and_ekf_agree_when_the_measurement_is_nearly_linear():
     t, z, sigma, truth, F, Q = _radar_case(n_steps=200)
     n = len(t)
     P0 = np.diag([100.0] * 3 + [25.0] * 3 + [4.0] * 3)
-    common = (t, np.arange(n), np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)),
-              np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64),
-              truth[0].copy(), P0, np.full(n, 5.0), np.full(7, np.inf), 0, 1.0,
-              np.empty((0, 9)))
-    xe = kalman_forward(*common, 0, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING,
-                        NO_SPLINE)[0]
-    xu = kalman_forward(*common, UKF, np.array([1.0, 2.0, -6.0]), 0, False, 0.0, NO_FADING,
-                        NO_SPLINE)[0]
+    rows = FilterRows(t, np.arange(n), np.full(n, SPHERICAL), z, sigma, np.zeros((n, 3)),
+                      np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros(n, np.int64))
+    prior = FilterPrior(truth[0].copy(), P0, np.full(n, 5.0))
+    xe = run_filter(rows, prior, FilterSettings(np.full(7, np.inf), method=EKF)).xf
+    xu = run_filter(rows, prior, FilterSettings(np.full(7, np.inf), method=UKF)).xf
     assert np.abs(xe[20:, :3] - xu[20:, :3]).max() < 0.05

@@ -3,7 +3,8 @@ operator-switch, surveillance, phased-array, merged-feed, mixed).
 
 Checks are independent of the simulator's geometry code: measurements are recomputed from
 truth.csv (cubic Hermite interpolation per object) and the config's sites with pyproj; files
-are read with rangeproc's own reader (``load_config`` + ``read_sensor``, as ``stages.read.read_all``).
+are read with rangeproc's own reader (``load_config`` + ``read_sensor``, as
+``stages.read.read_all``).
 """
 from __future__ import annotations
 
