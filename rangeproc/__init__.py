@@ -21,3 +21,9 @@ The docstrings cite the published methods rangeproc implements by author and yea
 """
 
 __version__ = "0.1.0"
+
+# Before any kernel module is imported: numba's cache goes to a folder keyed to the kernels'
+# sources (rangeproc.kernel_cache), so an edited helper never loads a stale kernel.
+from rangeproc.kernel_cache import configure as _configure_kernel_cache  # noqa: E402
+
+_configure_kernel_cache()

@@ -174,10 +174,14 @@ class TerminalBars:
 
 
 def _clock(quiet: bool) -> Any:
+    """The run's stage clock: progress bars on a terminal (and one line when kernels are
+    compiled for their first run), silent under ``--quiet`` or when stderr is no terminal."""
+    from rangeproc.kernel_cache import announce_compilation
     from rangeproc.progress import StageClock
 
     if quiet or not sys.stderr.isatty():
         return StageClock()
+    announce_compilation(lambda line: click.echo(f"\r\033[Krangeproc: {line}", err=True))
     return StageClock(display=TerminalBars())
 
 

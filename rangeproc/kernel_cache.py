@@ -1,0 +1,178 @@
+"""Where the compiled kernels are cached, keyed to the source they were compiled from.
+
+rangeproc's filters, smoothers and editing loops are compiled by numba on first use and
+cached on disk, so only the first run of an installation pays the compilation. numba keys a
+cached kernel on its own file's modification time only: a kernel whose *helper* in another
+module changed would be loaded stale. rangeproc therefore keys the whole cache folder to
+the source of every module that compiled code can reach: the modules that define compiled
+functions and, transitively, the rangeproc modules they import (where their helpers and
+constants live). An edit to any of them selects a fresh folder; nothing needs cleaning.
+
+The folder is ``<base>/kernels-<key>``, with ``<base>`` the first of:
+``RANGEPROC_CACHE_DIR``; ``NUMBA_CACHE_DIR``; ``$XDG_CACHE_HOME/rangeproc``;
+``~/.cache/rangeproc``. :func:`configure` (run when ``rangeproc`` is imported, before any
+kernel module) points numba there and removes the folders of other keys under the same
+base. :func:`announce_compilation` prints one line when the first kernel of a run is
+compiled rather than loaded.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import shutil
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+#: Environment variable naming the base folder of the kernel cache.
+CACHE_ENV = "RANGEPROC_CACHE_DIR"
+#: Prefix of the keyed cache folder under the base.
+FOLDER_PREFIX = "kernels-"
+#: Hex digits of the source key in the folder name.
+KEY_DIGITS = 16
+
+PACKAGE_ROOT = Path(__file__).resolve().parent
+
+
+def _module_file(root: Path, module: str) -> Path | None:
+    """The source file of ``rangeproc.<...>`` module ``module`` under ``root`` (the package
+    folder), or None when it is not a module of the package."""
+    parts = module.split(".")
+    if parts[0] != root.name:
+        return None
+    base = root.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+_FROM = re.compile(r"^\s*from\s+(rangeproc[\w.]*)\s+import\s+(\([^)]*\)|[^\n]*)", re.M)
+_IMPORT = re.compile(r"^\s*import\s+(rangeproc[\w.]*)", re.M)
+_USES_NUMBA = re.compile(r"^\s*(from\s+numba[\w.]*\s+import|import\s+numba)", re.M)
+
+
+def _imports(root: Path, text: str) -> set[Path]:
+    """The package's source files that the source ``text`` imports (absolute imports, the
+    package's convention), including submodules named in a ``from ... import`` list."""
+    out: set[Path] = set()
+    names = [m.group(1) for m in _IMPORT.finditer(text)]
+    for m in _FROM.finditer(text):
+        names.append(m.group(1))
+        for item in m.group(2).strip("()").split(","):
+            word = item.split("#")[0].split(" as ")[0].strip()
+            if word.isidentifier():
+                names.append(f"{m.group(1)}.{word}")
+    for name in names:
+        f = _module_file(root, name)
+        if f is not None:
+            out.add(f)
+    return out
+
+
+def kernel_sources(root: Path = PACKAGE_ROOT) -> list[Path]:
+    """Every source file compiled code can reach: the modules that import numba and,
+    transitively, the package modules they import. Sorted by path."""
+    texts = {p: p.read_text(encoding="utf-8") for p in root.rglob("*.py")}
+    todo = [p for p, text in texts.items() if _USES_NUMBA.search(text)]
+    seen: set[Path] = set()
+    while todo:
+        path = todo.pop()
+        if path in seen:
+            continue
+        seen.add(path)
+        text = texts.get(path)
+        if text is not None:
+            todo.extend(_imports(root, text) - seen)
+    return sorted(seen)
+
+
+def source_key(root: Path = PACKAGE_ROOT) -> str:
+    """Hex digest of the kernel sources' paths and contents and the numba version."""
+    h = hashlib.sha256()
+    try:
+        from importlib.metadata import version
+        h.update(version("numba").encode())
+    except Exception:  # noqa: BLE001 - an unknown version still keys on the sources
+        pass
+    for path in kernel_sources(root):
+        h.update(str(path.relative_to(root)).encode())
+        h.update(b"\0")
+        h.update(path.read_bytes())
+        h.update(b"\0")
+    return h.hexdigest()[:KEY_DIGITS]
+
+
+def default_base(environ: Mapping[str, str] = os.environ) -> Path:
+    """The cache's base folder when neither environment variable names one."""
+    xdg = environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "rangeproc"
+
+
+def cache_folder(key: str, environ: Mapping[str, str] = os.environ) -> Path:
+    """The keyed folder for ``key`` (module docstring); an environment whose
+    ``NUMBA_CACHE_DIR`` already is that folder (a child process) keeps it."""
+    leaf = FOLDER_PREFIX + key
+    numba_dir = environ.get("NUMBA_CACHE_DIR")
+    if numba_dir and Path(numba_dir).name == leaf:
+        return Path(numba_dir)
+    base = environ.get(CACHE_ENV) or numba_dir
+    return (Path(base) if base else default_base(environ)) / leaf
+
+
+def _prune(folder: Path) -> None:
+    """Remove the other keys' folders beside ``folder`` (kernels of edited sources)."""
+    try:
+        for other in folder.parent.glob(FOLDER_PREFIX + "*"):
+            if other != folder and other.is_dir():
+                shutil.rmtree(other, ignore_errors=True)
+    except OSError:
+        pass
+
+
+#: The folder :func:`configure` chose (None before it ran).
+FOLDER: Path | None = None
+
+
+def configure() -> Path:
+    """Point numba's cache at the keyed folder (before any kernel module is imported; also
+    when numba is already imported) and prune the other keys' folders. Returns the folder."""
+    global FOLDER
+    folder = cache_folder(source_key())
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)       # child processes and numba's reload
+    config = sys.modules.get("numba.core.config")
+    if config is not None:
+        config.CACHE_DIR = str(folder)
+    if not folder.is_dir():
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            pass                      # numba falls back to its own locations
+        _prune(folder)
+    FOLDER = folder
+    return folder
+
+
+def announce_compilation(say: Callable[[str], None]) -> object:
+    """Call ``say`` with one line the first time, in this process, that a kernel is compiled
+    rather than loaded from the cache (the first run of an installation, or of a filter
+    family not run before). Returns the registered numba event listener (for
+    ``numba.core.event.unregister``)."""
+    from numba.core import event
+
+    class _Once(event.Listener):
+        done = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not self.done:
+                self.done = True
+                say("compiling the filter kernels for their first run (once; cached in "
+                    f"{FOLDER or os.environ.get('NUMBA_CACHE_DIR', 'the numba cache')})")
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    listener = _Once()
+    event.register("numba:compile", listener)
+    return listener

@@ -1,0 +1,128 @@
+"""The compiled-kernel cache: keyed to every source compiled code can reach, so an edited helper
+never loads a stale kernel; its folder follows the environment; the first compilation of a
+process is announced once."""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba import njit
+from numba.core import event
+
+from rangeproc import kernel_cache
+from rangeproc.kernel_cache import (
+    CACHE_ENV,
+    FOLDER_PREFIX,
+    announce_compilation,
+    cache_folder,
+    kernel_sources,
+    source_key,
+)
+
+ROOT = kernel_cache.PACKAGE_ROOT
+
+
+@pytest.fixture()
+def package_copy(tmp_path: Path) -> Path:
+    """The package's Python sources copied to ``tmp_path / "rangeproc"``."""
+    dest = tmp_path / "rangeproc"
+    shutil.copytree(ROOT, dest, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    return dest
+
+
+def _rel(paths: list[Path], root: Path) -> set[str]:
+    return {p.relative_to(root).as_posix() for p in paths}
+
+
+def test_the_key_covers_the_helpers_of_the_forward_kernels() -> None:
+    """The kernels' own module, the helper modules they call and the constants' modules."""
+    rel = _rel(kernel_sources(), ROOT)
+    for name in ("estimation/forward_kernels.py", "estimation/update.py",
+                 "estimation/linalg.py", "estimation/kernels.py", "estimation/moments.py",
+                 "estimation/divergence.py", "models/measurement.py", "models/motion.py",
+                 "estimation/rts.py", "tracking/score.py"):
+        assert name in rel, name
+    assert "report/page.py" not in rel                 # pure Python, no kernel reaches it
+
+
+def test_every_module_that_imports_numba_is_keyed() -> None:
+    rel = _rel(kernel_sources(), ROOT)
+    for path in ROOT.rglob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        if "from numba import" in text or "\nimport numba" in text:
+            assert path.relative_to(ROOT).as_posix() in rel
+
+
+def test_editing_a_helper_changes_the_key_and_a_report_module_does_not(
+        package_copy: Path) -> None:
+    before = source_key(package_copy)
+    assert before == source_key(package_copy)         # deterministic
+    page = package_copy / "report" / "page.py"
+    page.write_text(page.read_text() + "\n# a report edit\n")
+    assert source_key(package_copy) == before
+    helper = package_copy / "estimation" / "linalg.py"  # inlined into every forward kernel
+    helper.write_text(helper.read_text().replace("0.5 * (P[i, j] + P[j, i])",
+                                                 "0.5 * (P[j, i] + P[i, j])"))
+    assert source_key(package_copy) != before
+
+
+def test_a_submodule_named_in_an_import_list_is_followed(package_copy: Path) -> None:
+    """``from rangeproc.estimation import forward_kernels as fk`` reaches forward_kernels."""
+    user = package_copy / "uses_kernels.py"
+    user.write_text("import numba\nfrom rangeproc.estimation import (\n    forward_kernels as fk,"
+                    "\n)\n")
+    rel = _rel(kernel_sources(package_copy), package_copy)
+    assert {"uses_kernels.py", "estimation/forward_kernels.py"} <= rel
+
+
+def test_the_folder_follows_the_environment(tmp_path: Path) -> None:
+    key = "0123456789abcdef"
+    leaf = FOLDER_PREFIX + key
+    assert cache_folder(key, {CACHE_ENV: str(tmp_path)}) == tmp_path / leaf
+    assert cache_folder(key, {"NUMBA_CACHE_DIR": str(tmp_path)}) == tmp_path / leaf
+    assert cache_folder(key, {CACHE_ENV: str(tmp_path / "a"),
+                              "NUMBA_CACHE_DIR": str(tmp_path / "b")}) == tmp_path / "a" / leaf
+    # a child process inherits the keyed folder itself: it is kept, not nested
+    assert cache_folder(key, {"NUMBA_CACHE_DIR": str(tmp_path / leaf)}) == tmp_path / leaf
+    assert cache_folder(key, {"XDG_CACHE_HOME": str(tmp_path)}) == tmp_path / "rangeproc" / leaf
+    assert cache_folder(key, {}) == Path.home() / ".cache" / "rangeproc" / leaf
+
+
+def test_configure_points_numba_at_the_keyed_folder_and_prunes_old_keys(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from numba.core import config
+    stale = tmp_path / (FOLDER_PREFIX + "stale")
+    stale.mkdir()
+    (stale / "old.nbi").write_text("x")
+    keep_dir, keep_folder = config.CACHE_DIR, kernel_cache.FOLDER
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "")
+    try:
+        folder = kernel_cache.configure()
+        assert folder == tmp_path / (FOLDER_PREFIX + source_key())
+        assert folder.is_dir() and not stale.exists()
+        assert config.CACHE_DIR == str(folder) and os.environ["NUMBA_CACHE_DIR"] == str(folder)
+    finally:
+        config.CACHE_DIR = keep_dir
+        kernel_cache.FOLDER = keep_folder
+
+
+def test_the_first_compilation_is_announced_once() -> None:
+    said: list[str] = []
+    listener = announce_compilation(said.append)
+    try:
+        @njit
+        def twice(x):  # type: ignore[no-untyped-def]
+            return 2.0 * x
+
+        @njit
+        def thrice(x):  # type: ignore[no-untyped-def]
+            return 3.0 * x
+
+        assert twice(np.float64(1.0)) == 2.0 and thrice(np.float64(1.0)) == 3.0
+    finally:
+        event.unregister("numba:compile", listener)
+    assert len(said) == 1 and "compiling the filter kernels" in said[0]
