@@ -11,8 +11,8 @@ constants live). An edit to any of them selects a fresh folder; nothing needs cl
 The folder is ``<base>/kernels-<key>``, with ``<base>`` the first of:
 ``RANGEPROC_CACHE_DIR``; ``NUMBA_CACHE_DIR``; ``$XDG_CACHE_HOME/rangeproc``;
 ``~/.cache/rangeproc``. :func:`configure` (run when ``rangeproc`` is imported, before any
-kernel module) points numba there and removes the folders of other keys under the same
-base. :func:`announce_compilation` prints one line when the first kernel of a run is
+kernel module) points numba there, marks the folder as used, and removes the folders of other
+keys under the same base that no run has used for two weeks (:data:`UNUSED_S`). :func:`announce_compilation` prints one line when the first kernel of a run is
 compiled rather than loaded.
 """
 from __future__ import annotations
@@ -22,6 +22,7 @@ import os
 import re
 import shutil
 import sys
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -121,11 +122,16 @@ def cache_folder(key: str, environ: Mapping[str, str] = os.environ) -> Path:
     return (Path(base) if base else default_base(environ)) / leaf
 
 
-def _prune(folder: Path) -> None:
-    """Remove the other keys' folders beside ``folder`` (kernels of edited sources)."""
+#: A key's folder unused (no run started with it) for this many seconds is removed: two
+#: weeks, so that checkouts or installations of different versions side by side keep theirs.
+UNUSED_S = 14 * 24 * 3600.0
+
+
+def _prune(folder: Path, now: float) -> None:
+    """Remove the other keys' folders beside ``folder`` unused for :data:`UNUSED_S`."""
     try:
         for other in folder.parent.glob(FOLDER_PREFIX + "*"):
-            if other != folder and other.is_dir():
+            if other != folder and other.is_dir() and other.stat().st_mtime < now - UNUSED_S:
                 shutil.rmtree(other, ignore_errors=True)
     except OSError:
         pass
@@ -137,19 +143,22 @@ FOLDER: Path | None = None
 
 def configure() -> Path:
     """Point numba's cache at the keyed folder (before any kernel module is imported; also
-    when numba is already imported) and prune the other keys' folders. Returns the folder."""
+    when numba is already imported), mark it used, and prune the other keys' folders unused
+    for :data:`UNUSED_S`. Returns the folder."""
     global FOLDER
     folder = cache_folder(source_key())
     os.environ["NUMBA_CACHE_DIR"] = str(folder)       # child processes and numba's reload
     config = sys.modules.get("numba.core.config")
     if config is not None:
         config.CACHE_DIR = str(folder)
-    if not folder.is_dir():
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError:
-            pass                      # numba falls back to its own locations
-        _prune(folder)
+    new = not folder.is_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)                                  # in use: not pruned by others
+    except OSError:
+        pass                          # numba falls back to its own locations
+    if new:
+        _prune(folder, time.time())
     FOLDER = folder
     return folder
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -91,19 +92,25 @@ def test_the_folder_follows_the_environment(tmp_path: Path) -> None:
     assert cache_folder(key, {}) == Path.home() / ".cache" / "rangeproc" / leaf
 
 
-def test_configure_points_numba_at_the_keyed_folder_and_prunes_old_keys(
+def test_configure_points_numba_at_the_keyed_folder_and_prunes_unused_keys(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from numba.core import config
     stale = tmp_path / (FOLDER_PREFIX + "stale")
     stale.mkdir()
     (stale / "old.nbi").write_text("x")
+    month_ago = time.time() - 30 * 24 * 3600
+    os.utime(stale, (month_ago, month_ago))
+    recent = tmp_path / (FOLDER_PREFIX + "other-checkout")      # used yesterday: kept
+    recent.mkdir()
+    day_ago = time.time() - 24 * 3600
+    os.utime(recent, (day_ago, day_ago))
     keep_dir, keep_folder = config.CACHE_DIR, kernel_cache.FOLDER
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     monkeypatch.setenv("NUMBA_CACHE_DIR", "")
     try:
         folder = kernel_cache.configure()
         assert folder == tmp_path / (FOLDER_PREFIX + source_key())
-        assert folder.is_dir() and not stale.exists()
+        assert folder.is_dir() and not stale.exists() and recent.is_dir()
         assert config.CACHE_DIR == str(folder) and os.environ["NUMBA_CACHE_DIR"] == str(folder)
     finally:
         config.CACHE_DIR = keep_dir
