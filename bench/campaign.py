@@ -11,9 +11,9 @@ writing its own output folder, all reading the one copy of ``sample_data``), the
    with 2 worker processes, the cluster's start included;
 4. Dask's overhead per task: 400 no-op tasks through a 2-worker ``LocalCluster``.
 
-Prints the scaling and the issue's figure (2 workers at most 0.6x the serial time), the
-per-sortie cost, and what a 16-worker cluster would need for the campaign; writes
-``bench/campaign.json``.
+Prints the scaling (2 workers at most 0.6x the serial time, at least 1.7x the throughput of
+1 worker), a scaling model from the measured per-sortie cost, the cluster's fixed cost and the
+contention, and what a 16-worker cluster would need; writes ``bench/campaign.json``.
 
     python bench/campaign.py [--sorties 20] [--skip-process-loop]
 """
@@ -34,6 +34,8 @@ from rangeproc.parallel import usable_cores
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE = ROOT / "sample_data"
 TARGET_RATIO = 0.6
+#: Throughput of 2 workers against 1 the campaign must reach on a 2-core machine.
+TARGET_THROUGHPUT_2 = 1.7
 
 
 def build(n: int) -> Path:
@@ -108,6 +110,25 @@ def task_overhead(n: int = 400) -> tuple[float, float]:
         return (time.perf_counter() - t1) / n, start
 
 
+def scaling_model(n_sorties: int, one_s: float, two_s: float, c1: float, c2: float) -> dict:
+    """The campaign's time on n workers, ``T(n) = F + ceil(N / n) c k(n)``, from the measured
+    1- and 2-worker campaigns: ``c`` the per-sortie cost alone (``c1``), ``k(2) = c2 / c1``
+    the contention of two sorties on this machine's cores, ``F`` the fixed cost (what the
+    1-worker campaign took beyond its sorties). Projects 16 workers on 16 cores at the
+    contention ``k(2)`` (one worker per core, as here), for these N sorties and for 16 N."""
+    fixed = max(0.0, one_s - n_sorties * c1)
+    k2 = c2 / c1
+
+    def t(n: int, n_s: int, k: float) -> float:
+        return fixed + -(-n_s // n) * c1 * k
+
+    t16 = t(16, n_sorties, k2)
+    t16_big = t(16, 16 * n_sorties, k2)
+    return {"c_s": c1, "c2_s": c2, "k2": k2, "fixed_s": fixed, "throughput_2": one_s / two_s,
+            "t16_s": t16, "linear_16": t(1, n_sorties, 1.0) / (16 * t16),
+            "linear_16_big": t(1, 16 * n_sorties, 1.0) / (16 * t16_big)}
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sorties", type=int, default=20)
@@ -131,17 +152,20 @@ def main(argv: list[str] | None = None) -> None:
     print(f"campaign, 2 workers:          {two:6.1f} s", flush=True)
     per_task, start = task_overhead()
     ratio = two / serial
-    per_sortie = statistics.median(two_each)
-    # 16 workers: the sorties in ceil(N/16) waves at the measured per-sortie cost (a worker
-    # per core: no sharing of cores as on this 2-core machine), plus start and dispatch
-    waves = -(-a.sorties // 16)
-    need16 = start + waves * statistics.median(one_each) + a.sorties * per_task
+    model = scaling_model(a.sorties, one, two, statistics.median(one_each),
+                          statistics.median(two_each))
     print(f"Dask: {per_task * 1e3:.2f} ms per task through the scheduler; LocalCluster start "
-          f"{start:.1f} s; per sortie on a worker: {statistics.median(one_each):.2f} s alone, "
-          f"{per_sortie:.2f} s with 2 workers on 2 cores")
-    print(f"scaling: 1 -> 2 workers {one:.1f} -> {two:.1f} s ({one / two:.2f}x); "
-          f"16 workers (16 cores) would need about {need16:.1f} s for these {a.sorties} "
-          f"sorties ({waves} wave{'s' * (waves != 1)})")
+          f"{start:.1f} s")
+    print(f"scaling model T(n) = F + ceil(N / n) * c * k(n): per-sortie cost c = "
+          f"{model['c_s']:.2f} s (1 worker), contention k(2) = {model['k2']:.2f} (2 workers on "
+          f"{usable_cores()} cores), fixed cost F = {model['fixed_s']:.1f} s (cluster start, "
+          "workers loading the kernels, dispatch, close)")
+    print(f"scaling: 1 -> 2 workers {one:.1f} -> {two:.1f} s: {model['throughput_2']:.2f}x the "
+          f"throughput (target >= {TARGET_THROUGHPUT_2:g}x: "
+          f"{'PASS' if model['throughput_2'] >= TARGET_THROUGHPUT_2 else 'FAIL'})")
+    print(f"16 workers on 16 cores, {a.sorties} sorties: about {model['t16_s']:.1f} s if the "
+          f"contention stays k(2); {model['linear_16']:.0%} of linear (for {16 * a.sorties} "
+          f"sorties: {model['linear_16_big']:.0%})")
     bound = cores / usable_cores()
     print(f"bound: the serial loop already keeps {cores:.2f} of {usable_cores()} cores busy, "
           f"so {usable_cores()} workers on these cores can at best reach {bound:.2f}x its time "
@@ -161,7 +185,7 @@ def main(argv: list[str] | None = None) -> None:
         "campaign_2_workers_s": two, "campaign_1_each_s": one_each,
         "campaign_2_each_s": two_each, "task_overhead_s": per_task,
         "local_cluster_start_s": start, "ratio_2_workers_to_serial": ratio,
-        "projected_16_workers_s": need16,
+        "scaling_model": model, "projected_16_workers_s": model["t16_s"],
         "ratio_2_workers_to_process_loop": two / loop if loop else None}, indent=2))
 
 

@@ -12,8 +12,9 @@ The folder is ``<base>/kernels-<key>``, with ``<base>`` the first of:
 ``RANGEPROC_CACHE_DIR``; ``NUMBA_CACHE_DIR``; ``$XDG_CACHE_HOME/rangeproc``;
 ``~/.cache/rangeproc``. :func:`configure` (run when ``rangeproc`` is imported, before any
 kernel module) points numba there, marks the folder as used, and removes the folders of other
-keys under the same base that no run has used for two weeks (:data:`UNUSED_S`). :func:`announce_compilation` prints one line when the first kernel of a run is
-compiled rather than loaded.
+keys under the same base that no run has used for two weeks (:data:`UNUSED_S`).
+:func:`announce_compilation` prints one line when the first kernel of a run is compiled
+rather than loaded.
 """
 from __future__ import annotations
 

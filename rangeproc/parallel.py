@@ -26,12 +26,22 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
+#: Environment variable: the most cores one run may use, when several runs share a machine
+#: (a campaign's Dask workers set it to their share, ``campaign.worker``).
+CORES_ENV = "RANGEPROC_CORES"
+
+
 def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity where the OS tells it)."""
+    """Cores this process may run on: its CPU affinity where the OS tells it, at most
+    ``RANGEPROC_CORES`` when that is set to a positive integer."""
     try:
-        return len(os.sched_getaffinity(0))
+        cores = len(os.sched_getaffinity(0))
     except AttributeError:                                 # not on Linux
-        return os.cpu_count() or 1
+        cores = os.cpu_count() or 1
+    share = os.environ.get(CORES_ENV, "").strip()
+    if share.isdigit() and int(share) > 0:
+        cores = min(cores, int(share))
+    return cores
 
 
 def thread_map(fn: Callable[[T], R], items: Sequence[T],

@@ -149,3 +149,14 @@ def test_shared_with_child_stops_the_child_when_first_raises(tmp_path):
     with pytest.raises(OSError, match="disk full"):
         shared_with_child(_write_job(tmp_path), 50, first=first)
     assert not [c for c in multiprocessing.active_children() if c.name == "rangeproc-child"]
+
+
+@pytest.mark.parametrize(("value", "limited"), [("1", True), ("0", False), ("x", False),
+                                                ("", False)])
+def test_usable_cores_keeps_to_the_share_a_campaign_worker_sets(
+        monkeypatch: pytest.MonkeyPatch, value: str, limited: bool) -> None:
+    from rangeproc.parallel import CORES_ENV, usable_cores
+    monkeypatch.delenv(CORES_ENV, raising=False)
+    machine = usable_cores()
+    monkeypatch.setenv(CORES_ENV, value)
+    assert usable_cores() == (1 if limited else machine)

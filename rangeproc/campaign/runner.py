@@ -1,13 +1,16 @@
 """Run a campaign's sorties on a Dask cluster (``dask.distributed``) and record the outcome.
 
 By default a ``LocalCluster`` of worker *processes* on this machine (one per usable core,
-one thread each: a sortie's own kernels already use threads); with ``scheduler`` an existing
-cluster at that address (its workers need rangeproc installed and the sorties' files at the
-same paths). Each sortie is one task (:func:`rangeproc.campaign.sortie.run_sortie`); a
-worker that dies mid-sortie has its task rescheduled by Dask on another worker (up to the
-scheduler's ``allowed-failures``, 3 by default), and as the sortie's outputs are only
-renamed into place at its end, the rerun neither loses nor duplicates anything. A task
-that still cannot finish is recorded as failed ("worker lost").
+one thread each); with ``scheduler`` an existing cluster at that address (its workers need
+rangeproc installed and the sorties' files at the same paths). Every worker gets the
+:class:`~rangeproc.campaign.worker.SortieWorker` plugin: a sortie uses its worker's share of
+the machine's cores (not a thread per core in every worker), and the compiled kernels are
+loaded when the worker starts, not in its first sortie. Each sortie is one task
+(:func:`rangeproc.campaign.sortie.run_sortie`); a worker that dies mid-sortie has its task
+rescheduled by Dask on another worker (up to the scheduler's ``allowed-failures``, 3 by
+default), and as the sortie's outputs are only renamed into place at its end, the rerun
+neither loses nor duplicates anything. A task that still cannot finish is recorded as failed
+("worker lost").
 
 Writes ``<campaign out_dir>/campaign.json`` (atomic): every sortie's outcome in campaign
 order, the counts, the wall time and where it ran.
@@ -60,10 +63,14 @@ def run_campaign(campaign: Campaign, *, scheduler: str | None = None,
     finishes. ConfigError when the scheduler cannot be reached."""
     from distributed import as_completed
 
+    from rangeproc.campaign.worker import SortieWorker, threads_by_host
+
     t0 = time.perf_counter()
     client, where = _client(scheduler, workers, len(campaign.sorties))
     outcomes: dict[str, Outcome] = {}
     try:
+        # each worker: its share of its machine's cores, the kernels loaded before any sortie
+        client.register_plugin(SortieWorker(threads_by_host(client)))
         futures = {client.submit(run_sortie, s, resume, pure=False,
                                  key=f"rangeproc-sortie-{k}-{s.id}"): s
                    for k, s in enumerate(campaign.sorties)}

@@ -282,3 +282,39 @@ def test_local_workers_run_without_the_statistical_profiler():
         cluster.close()
     assert where.startswith("LocalCluster") and list(seen.values()) == [False]
     assert dask.config.get("distributed.worker.profile.enabled")   # this process: unchanged
+
+
+def test_each_worker_gets_its_share_of_the_cores_and_loads_the_kernels_at_start():
+    """Two local workers on this machine: each sortie thread gets half the cores (at least
+    one), and the plugin's warm-up has loaded the EKF kernel before any sortie ran."""
+    from rangeproc.campaign.runner import _client
+    from rangeproc.campaign.worker import SortieWorker, threads_by_host
+    from rangeproc.parallel import CORES_ENV, usable_cores
+
+    def loaded() -> int:
+        from rangeproc.estimation import forward_kernels
+        return len(forward_kernels.ekf_forward.signatures)
+
+    client, _ = _client(None, 2, 2)
+    try:
+        hosts = threads_by_host(client)
+        assert sum(hosts.values()) == 2
+        client.register_plugin(SortieWorker(hosts))
+        shares = client.run(lambda: (os.environ.get(CORES_ENV), usable_cores()))
+        kernels = client.run(loaded)
+    finally:
+        cluster = client.cluster
+        client.close()
+        cluster.close()
+    share = max(1, usable_cores() // 2)
+    assert list(shares.values()) == [(str(share), share)] * 2
+    assert all(n >= 1 for n in kernels.values())
+
+
+def test_core_share_and_host_of_an_address():
+    from rangeproc.campaign.worker import _host, core_share
+
+    assert core_share(16, 16) == 1 and core_share(16, 4) == 4 and core_share(2, 3) == 1
+    assert core_share(8, 0) == 8
+    assert _host("tcp://10.0.0.5:40123") == "10.0.0.5"
+    assert _host("tcp://[::1]:8786") == "[::1]"
