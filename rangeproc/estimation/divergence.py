@@ -60,8 +60,8 @@ PARTIAL_DIVERGENCE = 10.0
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def guard_row(nis: float, accepted: bool, mask: int, m: int, gate: np.ndarray, k: int,
-              sensor: int, consecutive: np.ndarray, reset_after: int, reset_inflation: float,
-              P: np.ndarray, last_reset: int) -> bool:
+              sensor: int, consecutive: np.ndarray, resets: np.ndarray, reset_after: int,
+              reset_inflation: float, P: np.ndarray) -> bool:
     """Count one gated row of ``sensor`` for the divergence guard; reset ``P`` when due.
 
     A row counts when it was rejected, or accepted only in part with a chi-square ``nis``
@@ -75,14 +75,18 @@ def guard_row(nis: float, accepted: bool, mask: int, m: int, gate: np.ndarray, k
     stamp must not compound it) so the track re-acquires instead of rejecting that sensor for
     ever, and every sensor's count restarts. ``reset_after = 0`` disables it.
 
-    Returns whether it reset (the caller records ``k`` as ``last_reset``).
+    ``consecutive`` (sensors,) int64: each sensor's count; ``resets`` (2,) int64: the number
+    of resets so far and the epoch of the last (-1: none), both updated. Returns whether it
+    reset.
     """
     if accepted and (mask == 0 or nis <= PARTIAL_DIVERGENCE * gate[m]):
         consecutive[sensor] = 0
         return False
     consecutive[sensor] += 1
-    if reset_after > 0 and consecutive[sensor] >= reset_after and last_reset != k:
+    if reset_after > 0 and consecutive[sensor] >= reset_after and resets[1] != k:
         reset_covariance(P, min(max(reset_inflation, 4.0 * nis / gate[m]), MAX_RESET_INFLATION))
         consecutive[:] = 0
+        resets[0] += 1
+        resets[1] = k
         return True
     return False

@@ -44,7 +44,7 @@ from rangeproc.estimation.fading import (
     epoch_innovations,
     fading_factors,
 )
-from rangeproc.estimation.kernels import N_OBSERVED, predict_cov, predict_state
+from rangeproc.estimation.kernels import N_OBSERVED, predict_epoch
 from rangeproc.estimation.linalg import pack
 from rangeproc.estimation.moments import (
     EKF,
@@ -65,17 +65,28 @@ from rangeproc.estimation.spline_filter import (
     epoch_chi2,
     segment_jerk,
 )
-from rangeproc.estimation.update import measured_components, row_workspace, update_row
+from rangeproc.estimation.update import (
+    measured_components,
+    record_row,
+    row_workspace,
+    update_row,
+)
 from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.models.motion import N_KINEMATIC
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def forward_outputs(E: int, N: int, n: int):
-    """The outputs every kernel fills: ``xf`` (E, n), ``Pf`` (E, n(n+1)/2), ``nis`` (N,) NaN,
-    ``dof``, ``rejected`` (N,) int64 zeros, ``ll_rows`` (N,) zeros."""
+def forward_start(E: int, N: int, x0: np.ndarray, P0: np.ndarray, sensor: np.ndarray):
+    """What every kernel starts from: its outputs ``xf`` (E, n), ``Pf`` (E, n(n+1)/2),
+    ``nis`` (N,) NaN, ``dof``, ``rejected`` (N,) int64 zeros, ``ll_rows`` (N,) zeros; the
+    state ``x``, ``P`` (copies of the prior); the divergence guard's per-sensor counts and
+    ``resets`` = [number, last epoch] (``estimation.divergence.guard_row``)."""
+    n = x0.shape[0]
+    resets = np.zeros(2, dtype=np.int64)
+    resets[1] = -1
     return (np.empty((E, n)), np.empty((E, n * (n + 1) // 2)), np.full(N, np.nan),
-            np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64), np.zeros(N))
+            np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64), np.zeros(N),
+            x0.copy(), P0.copy(), np.zeros(n_series(sensor), dtype=np.int64), resets)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -92,7 +103,10 @@ def store_epoch(x: np.ndarray, P: np.ndarray, xf: np.ndarray, Pf: np.ndarray, k:
 @njit(cache=True, nogil=True, error_model="numpy")
 def n_series(sensor: np.ndarray) -> int:
     """Number of sensors the rows name (``max(sensor) + 1``; 1 without rows)."""
-    return np.max(sensor) + 1 if sensor.shape[0] > 0 else 1
+    top = 0
+    for i in range(sensor.shape[0]):
+        top = max(top, sensor[i])
+    return top + 1
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -106,50 +120,35 @@ def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     ``maneuver_norm`` > 0 (m/s^2) the constant-norm maneuver of patent CN109581356A as a
     pseudo-measurement after each epoch's rows (``estimation.constraint``)."""
     E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
-    xf, Pf, nis, dof, rejected, ll_rows = forward_outputs(E, N, n)
-    x = x0.copy()
-    P = P0.copy()
+    xf, Pf, nis, dof, rejected, ll_rows, x, P, consecutive, resets = forward_start(
+        E, N, x0, P0, sensor)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, _, _,
      _) = row_workspace(n)
     sig_row = np.empty(N_COMPONENTS)
     Pu = np.empty(n)
     use_lin = x_lin.shape[0] == E
-    consecutive = np.zeros(n_series(sensor), dtype=np.int64)
     loglik = 0.0
-    n_resets = 0
-    last_reset = -1
     i = 0
     for k in range(E):
-        if k > 0:
-            dt = epoch_t[k] - epoch_t[k - 1]
-            predict_state(x, dt)
-            predict_cov(P, AP, dt, q_steps[k])
+        predict_epoch(x, P, AP, epoch_t, q_steps, k)
         while i < N and meas_epoch[i] == k:
-            m = measured_components(z[i], sigma[i], idx)
+            m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:
                 ekf_moments(model[i], z[i], s[i], sv[i], Qr[i], x, x_lin[k] if use_lin else x,
                             use_lin, P, idx, m, h, H, y6, y, C, Z, Hs)
-                for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
                 add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
                 val, ok, _, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, True, False, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
-                nis[i] = val
-                rejected[i] = mask
-                ll_before = loglik
-                loglik += ll_row
-                ll_rows[i] = loglik - ll_before
-                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, reset_after,
-                             reset_inflation, P, last_reset):
-                    n_resets += 1
-                    last_reset = k
+                loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
+                guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets, reset_after,
+                          reset_inflation, P)
             i += 1
         if maneuver_norm > 0.0:
             norm_update(x, P, x_lin[k] if use_lin else x, maneuver_norm, Pu)
         store_epoch(x, P, xf, Pf, k)
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows
+    return xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -162,46 +161,31 @@ def ukf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     parameters ``ukf`` = ``[alpha, beta, kappa]`` (Ye and Cui: kappa = 3 - n); the linear
     prediction is exact."""
     E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
-    xf, Pf, nis, dof, rejected, ll_rows = forward_outputs(E, N, n)
-    x = x0.copy()
-    P = P0.copy()
+    xf, Pf, nis, dof, rejected, ll_rows, x, P, consecutive, resets = forward_start(
+        E, N, x0, P0, sensor)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
      xsig) = row_workspace(n)
     sig_row = np.empty(N_COMPONENTS)
-    consecutive = np.zeros(n_series(sensor), dtype=np.int64)
     loglik = 0.0
-    n_resets = 0
-    last_reset = -1
     i = 0
     for k in range(E):
-        if k > 0:
-            dt = epoch_t[k] - epoch_t[k - 1]
-            predict_state(x, dt)
-            predict_cov(P, AP, dt, q_steps[k])
+        predict_epoch(x, P, AP, epoch_t, q_steps, k)
         while i < N and meas_epoch[i] == k:
-            m = measured_components(z[i], sigma[i], idx)
+            m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:
                 if not ukf_moments(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m, ukf, L,
                                    Zs, xsig, h, H, y6, y, C, Z):
                     raise FloatingPointError("covariance not positive definite in UKF")
-                for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
                 val, ok, _, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, False, False, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
-                nis[i] = val
-                rejected[i] = mask
-                ll_before = loglik
-                loglik += ll_row
-                ll_rows[i] = loglik - ll_before
-                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, reset_after,
-                             reset_inflation, P, last_reset):
-                    n_resets += 1
-                    last_reset = k
+                loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
+                guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets, reset_after,
+                          reset_inflation, P)
             i += 1
         store_epoch(x, P, xf, Pf, k)
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows
+    return xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -217,9 +201,8 @@ def sage_husa_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.nda
     or ``UKF``. Returns the common outputs, then ``sigma_used`` (N, 6): the adapted sigmas
     each update used (NaN where not measured)."""
     E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
-    xf, Pf, nis, dof, rejected, ll_rows = forward_outputs(E, N, n)
-    x = x0.copy()
-    P = P0.copy()
+    xf, Pf, nis, dof, rejected, ll_rows, x, P, consecutive, resets = forward_start(
+        E, N, x0, P0, sensor)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
      xsig) = row_workspace(n)
     sig_row = np.empty(N_COMPONENTS)
@@ -233,25 +216,18 @@ def sage_husa_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.nda
     sh_pos = np.zeros(G, dtype=np.int64)
     sh_acc = np.zeros((G, 2))
     sigma_used = np.full((N, N_COMPONENTS), np.nan)
-    consecutive = np.zeros(n_series(sensor), dtype=np.int64)
     loglik = 0.0
-    n_resets = 0
-    last_reset = -1
     i = 0
     for k in range(E):
-        if k > 0:
-            dt = epoch_t[k] - epoch_t[k - 1]
-            predict_state(x, dt)
-            predict_cov(P, AP, dt, q_steps[k])
+        predict_epoch(x, P, AP, epoch_t, q_steps, k)
         while i < N and meas_epoch[i] == k:
-            m = measured_components(z[i], sigma[i], idx)
+            m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
                             h, H, y6, y, C, Z, Hs)
                 for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
                     y_raw[a] = y[a]
                 if joseph:
                     add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
@@ -262,11 +238,7 @@ def sage_husa_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.nda
                 val, ok, n_acc, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, True, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
-                nis[i] = val
-                rejected[i] = mask
-                ll_before = loglik
-                loglik += ll_row
-                ll_rows[i] = loglik - ll_before
+                loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
                 if ok:                                   # Sage-Husa window, accepted only
                     for b in range(n_acc):
                         a = sel[b]
@@ -274,14 +246,12 @@ def sage_husa_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.nda
                         ratio = (ew[b] * ew[b] + 1.0 - Sinv[b, b]) * scale * scale
                         sh_record(sensor[i] * N_COMPONENTS + idx[a], ratio, y_raw[a], sh_buf,
                                   sh_count, sh_pos, sh_acc, adapt_window)
-                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, reset_after,
-                             reset_inflation, P, last_reset):
-                    n_resets += 1
-                    last_reset = k
+                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets,
+                             reset_after, reset_inflation, P):
                     sh_reset(sh_count, sh_pos, sh_acc)  # divergence: back to a-priori noise
             i += 1
         store_epoch(x, P, xf, Pf, k)
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, sigma_used
+    return xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows, sigma_used
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -297,9 +267,8 @@ def fading_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     Returns the common outputs, then ``fade`` (E, 9): the fading factors applied to the
     prediction ending at each epoch (the smoother applies them too)."""
     E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
-    xf, Pf, nis, dof, rejected, ll_rows = forward_outputs(E, N, n)
-    x = x0.copy()
-    P = P0.copy()
+    xf, Pf, nis, dof, rejected, ll_rows, x, P, consecutive, resets = forward_start(
+        E, N, x0, P0, sensor)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
      xsig) = row_workspace(n)
     sig_row = np.empty(N_COMPONENTS)
@@ -313,16 +282,11 @@ def fading_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     St = np.empty((N_COMPONENTS, N_COMPONENTS))
     tcol = np.empty((N_COMPONENTS, 1))
     b_ep = np.empty(N_OBSERVED)
-    consecutive = np.zeros(n_series(sensor), dtype=np.int64)
     loglik = 0.0
-    n_resets = 0
-    last_reset = -1
     i = 0
     for k in range(E):
+        dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
         if k > 0:
-            dt = epoch_t[k] - epoch_t[k - 1]
-            predict_state(x, dt)
-            predict_cov(P, AP, dt, q_steps[k])
             if dt > 0.0 and i < N and meas_epoch[i] == k:
                 e2, m_epoch, fixes = epoch_innovations(i, meas_epoch, model, z, sigma, s, sv,
                                                        Qr, x, P, gate, G_stf, h, H, y6, Hw,
@@ -336,31 +300,23 @@ def fading_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                             stf, v_stf, m_epoch, G_stf, P, dt, q_steps[k], fade[k]):
                         apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
-            m = measured_components(z[i], sigma[i], idx)
+            m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
                             h, H, y6, y, C, Z, Hs)
-                for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
                 if joseph:
                     add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
                 val, ok, _, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, False, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
-                nis[i] = val
-                rejected[i] = mask
-                ll_before = loglik
-                loglik += ll_row
-                ll_rows[i] = loglik - ll_before
-                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, reset_after,
-                             reset_inflation, P, last_reset):
-                    n_resets += 1
-                    last_reset = k
+                loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
+                guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets, reset_after,
+                          reset_inflation, P)
             i += 1
         store_epoch(x, P, xf, Pf, k)
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, fade
+    return xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows, fade
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -383,9 +339,8 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     ``knot`` (E,) bool: the anomaly test fired there (a new segment starts).
     """
     E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
-    xf, Pf, nis, dof, rejected, ll_rows = forward_outputs(E, N, n)
-    x = x0.copy()
-    P = P0.copy()
+    xf, Pf, nis, dof, rejected, ll_rows, x, P, consecutive, resets = forward_start(
+        E, N, x0, P0, sensor)
     (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
      xsig) = row_workspace(n)
     sig_row = np.empty(N_COMPONENTS)
@@ -412,16 +367,11 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
     anomalous = False
     seg_open = False
     dt = 0.0
-    consecutive = np.zeros(n_series(sensor), dtype=np.int64)
     loglik = 0.0
-    n_resets = 0
-    last_reset = -1
     i = 0
     for k in range(E):
         if k > 0:
-            dt = epoch_t[k] - epoch_t[k - 1]
-            predict_state(x, dt)
-            predict_cov(P, AP, dt, q_steps[k])
+            dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
             add_jerk(x, jerk, dt)                        # Zhou et al. 2001 eqs. 5/6
             for a in range(3):
                 jerk_out[k, a] = jerk[a]
@@ -442,14 +392,12 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                     fade[k, a] = lam
                 apply_fading(P, fade[k], dt, q_steps[k])
         while i < N and meas_epoch[i] == k:
-            m = measured_components(z[i], sigma[i], idx)
+            m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
                             h, H, y6, y, C, Z, Hs)
-                for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
                 if joseph:
                     add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
                 if anomalous:                            # Zhou et al. 2001 2.3.1: adapted R
@@ -461,21 +409,15 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 val, ok, n_acc, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, True, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
-                nis[i] = val
-                rejected[i] = mask
-                ll_before = loglik
-                loglik += ll_row
-                ll_rows[i] = loglik - ll_before
+                loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
                 if ok:                                   # running residual RSS (2.3.1)
                     for b in range(n_acc):
                         g = sensor[i] * N_COMPONENTS + idx[sel[b]]
                         r = ew[b] * sig[b]               # post-update residual z - h(x_k)
                         rss[g] += r * r
                         rss_n[g] += 1
-                if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, reset_after,
-                             reset_inflation, P, last_reset):
-                    n_resets += 1
-                    last_reset = k
+                guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets, reset_after,
+                          reset_inflation, P)
             i += 1
         if i_epoch < i:                                  # the epoch had rows
             if anomalous:                                # Zhou et al. 2001 2.3.2: new segment
@@ -490,4 +432,4 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
                 seg_open = False
             n_meas_ep += 1
         store_epoch(x, P, xf, Pf, k)
-    return xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows, fade, jerk_out, anomaly, knot
+    return xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows, fade, jerk_out, anomaly, knot

@@ -111,3 +111,17 @@ def add_q(P: np.ndarray, dt: float, q: float) -> None:
         P[3 + a, 6 + a] += q12
         P[6 + a, 3 + a] += q12
         P[6 + a, 6 + a] += q22
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def predict_epoch(x: np.ndarray, P: np.ndarray, FP: np.ndarray, epoch_t: np.ndarray,
+                  q_steps: np.ndarray, k: int) -> float:
+    """Predict ``x``, ``P`` (in place) from epoch ``k - 1`` to epoch ``k`` with the step's
+    white-jerk PSD ``q_steps[k]``; returns the step (s), 0 at ``k = 0`` (nothing to do)."""
+    if k == 0:
+        return 0.0
+    dt = epoch_t[k] - epoch_t[k - 1]
+    predict_state(x, dt)
+    predict_cov(P, FP, dt, q_steps[k])
+    return dt
+

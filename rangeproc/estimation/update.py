@@ -33,15 +33,29 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def measured_components(z_row: np.ndarray, sigma_row: np.ndarray, idx: np.ndarray) -> int:
+def measured_components(z_row: np.ndarray, sigma_row: np.ndarray, idx: np.ndarray,
+                        sig_row: np.ndarray) -> int:
     """Write into ``idx`` the components of one row (6,) that are measured (value not NaN,
-    sigma > 0); return how many."""
+    sigma > 0) and into ``sig_row`` their stated sigmas; return how many."""
     m = 0
     for c in range(N_COMPONENTS):
         if not math.isnan(z_row[c]) and sigma_row[c] > 0.0:
             idx[m] = c
+            sig_row[m] = sigma_row[c]
             m += 1
     return m
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def record_row(i: int, nis_row: float, mask: int, ll_row: float, loglik: float,
+               nis: np.ndarray, rejected: np.ndarray, ll_rows: np.ndarray) -> float:
+    """Store row ``i``'s gate results (chi-square, rejected bit mask, log-likelihood term)
+    and return the log-likelihood with the row added."""
+    nis[i] = nis_row
+    rejected[i] = mask
+    total = loglik + ll_row
+    ll_rows[i] = total - loglik
+    return total
 
 
 @njit(cache=True, error_model="numpy", inline="always")
