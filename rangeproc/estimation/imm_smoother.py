@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.imm import combine, model_matrices, switch_matrix
+from rangeproc.estimation.imm_models import combine, model_matrices, switch_matrix
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
 

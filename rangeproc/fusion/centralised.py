@@ -38,7 +38,7 @@ from rangeproc.fusion.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, UKF
-from rangeproc.estimation.imm import CA, CV, MODEL_NAMES
+from rangeproc.estimation.imm_models import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.tuning import (
     MAX_SEARCH_ROWS,

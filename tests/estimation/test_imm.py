@@ -7,14 +7,8 @@ from filterpy.kalman import IMMEstimator, KalmanFilter
 from scipy.linalg import expm, logm
 
 from rangeproc.estimation.forward import FilterSettings, run_filter
-from rangeproc.estimation.imm import (
-    CA,
-    CT,
-    CV,
-    imm_forward,
-    model_matrices,
-    switch_matrix,
-)
+from rangeproc.estimation.imm import imm_forward
+from rangeproc.estimation.imm_models import CA, CT, CV, model_matrices, switch_matrix
 from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.passes import imm_generator
@@ -178,7 +172,7 @@ def test_a_component_of_zero_weight_never_reaches_the_mixture() -> None:
     """Kim's smoother leaves a pruned model's entries unset (its workspace may hold any bits,
     NaN included): the combination must skip it, not multiply it by zero. (A NaN there made
     1 run in 6 of a MISTRAM-only IMM sortie write a NaN trajectory.)"""
-    from rangeproc.estimation.imm import combine
+    from rangeproc.estimation.imm_models import combine
     X = np.array([[1.0, 2.0], [np.nan, np.inf]])
     P = np.stack([np.eye(2), np.full((2, 2), np.nan)])
     x, out, dx = np.empty(2), np.empty((2, 2)), np.empty(2)

@@ -11,7 +11,7 @@ from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import EstimatorSettings, fuse_span, output_grid
 from rangeproc.fusion.lead_in import forward_in_time, lead_in_rows, time_reversed
-from rangeproc.estimation.imm import CA
+from rangeproc.estimation.imm_models import CA
 from rangeproc.models.measurement import SPHERICAL, measure_py
 from rangeproc.settings import ProcessingSettings
 
