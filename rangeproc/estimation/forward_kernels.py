@@ -226,11 +226,9 @@ def sage_husa_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.nda
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
-                            h, H, y6, y, C, Z, Hs)
+                            h, H, y6, y, C, Z, Hs, sig_row)
                 for a in range(m):
                     y_raw[a] = y[a]
-                if joseph:
-                    add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
                 sh_adapt(sensor[i], idx, m, sig_row, y, sh_count, sh_acc, adapt_window,
                          adapt_mean)
                 for a in range(m):
@@ -305,9 +303,7 @@ def fading_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
-                            h, H, y6, y, C, Z, Hs)
-                if joseph:
-                    add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
+                            h, H, y6, y, C, Z, Hs, sig_row)
                 val, ok, _, mask, ll_row = update_row(
                     y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, False, sel, sig, yw, HP,
                     S, Kt, AP, APHt, sdiag, ew, Sinv)
@@ -397,9 +393,7 @@ def spline_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarra
             if m > 0:
                 row_moments(method, model[i], z[i], s[i], sv[i], Qr[i], x,
                             x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs, xsig,
-                            h, H, y6, y, C, Z, Hs)
-                if joseph:
-                    add_linearisation_noise(model[i], sig_row, idx, m, x, s[i], Qr[i], P)
+                            h, H, y6, y, C, Z, Hs, sig_row)
                 if anomalous:                            # Zhou et al. 2001 2.3.1: adapted R
                     for a in range(m):
                         g = sensor[i] * N_COMPONENTS + idx[a]

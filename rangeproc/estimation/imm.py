@@ -50,7 +50,7 @@ from rangeproc.estimation.divergence import (
     reset_covariance,
 )
 from rangeproc.estimation.update import row_workspace, update_row
-from rangeproc.estimation.moments import EKF, add_linearisation_noise, row_moments
+from rangeproc.estimation.moments import EKF, row_moments
 from rangeproc.estimation.kernels import predict_cov, predict_state
 from rangeproc.estimation.linalg import pack
 from rangeproc.models.measurement import N_COMPONENTS
@@ -192,10 +192,9 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
             for j in range(r):
                 for a in range(m):
                     sig_row[a] = sigma[i, idx[a]]
-                add_linearisation_noise(model[i], sig_row, idx, m, X[j], s[i], Qr[i], PP[j])
                 row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
                             x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L, Zs,
-                            xsig, h, H, y6, y, C, Z, Hs)
+                            xsig, h, H, y6, y, C, Z, Hs, sig_row)
                 val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
                                                       PP[j], gate, True, False, sel, sig, yw,
                                                       HP, S, Kt, AP, APHt, sdiag, ew, Sinv)

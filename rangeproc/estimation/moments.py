@@ -261,10 +261,13 @@ def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.nd
                 P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray, L: np.ndarray,
                 Zs: np.ndarray, xs: np.ndarray, h: np.ndarray, H: np.ndarray,
                 y6: np.ndarray, y: np.ndarray, C: np.ndarray, Z: np.ndarray,
-                Hs: np.ndarray) -> None:
-    """Innovation moments of one row by :func:`ekf_moments` or :func:`ukf_moments`."""
+                Hs: np.ndarray, sig_row: np.ndarray) -> None:
+    """Innovation moments of one row by :func:`ekf_moments` or :func:`ukf_moments`; for the
+    EKF also the second-order error of its linearisation added to the row's sigmas
+    ``sig_row`` (:func:`add_linearisation_noise`; the unscented transform carries it)."""
     if method == EKF:
         ekf_moments(model, z, s, sv, Qr, x, x_lin, use_lin, P, idx, m, h, H, y6, y, C, Z, Hs)
+        add_linearisation_noise(model, sig_row, idx, m, x, s, Qr, P)
     elif not ukf_moments(model, z, s, sv, Qr, x, P, idx, m, ukf, L, Zs, xs, h, H, y6, y, C,
                          Z):
         raise FloatingPointError("covariance not positive definite in UKF")
