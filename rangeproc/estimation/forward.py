@@ -40,11 +40,8 @@ class FilterRows(NamedTuple):
 
     epoch_t: (E,) ascending distinct epoch times (s); the prior is at ``epoch_t[0]``.
     meas_epoch: (N,) int64 epoch index of each row (non-decreasing).
-    model: (N,) int64 measurement model code (``rangeproc.models.measurement``).
-    z, sigma: (N, 6) values (SI units, NaN = not measured) and their 1-sigma.
-    s, sv: (N, 3) sensor position (m) and velocity (m/s) in range ENU.
-    Qr: (N, 3, 3) sensor-to-ENU rotation of each row.
-    sensor: (N,) int64 sensor index of each row (>= 0).
+    model, z, sigma, s, sv, Qr, sensor: the rows' arrays as ``fusion.batch.MeasurementBatch``
+    declares them (``MeasurementBatch.filter_rows`` builds this tuple).
     """
 
     epoch_t: np.ndarray

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
+from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
 from rangeproc.parallel import thread_map
 
 #: Largest number of rows the likelihood search runs over, unless the span needs more for
@@ -59,9 +59,7 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
     t = batch.t[rows]
     sub_epochs = np.unique(t)
     meas_epoch = np.searchsorted(sub_epochs, t).astype(np.int64)
-    rows_sub = FilterRows(sub_epochs, meas_epoch, batch.model[rows], batch.z[rows],
-                          batch.sigma[rows], batch.s[rows], batch.sv[rows], batch.Qr[rows],
-                          batch.sensor[rows])
+    rows_sub = batch.rows(rows).filter_rows(sub_epochs, meas_epoch)   # contiguous copies
     grid = np.asarray(q_grid, dtype=float)
     settings = FilterSettings(gate, reset_after=reset_after, reset_inflation=reset_inflation)
 

@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rangeproc.estimation.forward import FilterRows
 from rangeproc.models.measurement import N_COMPONENTS
 
 
@@ -36,12 +37,18 @@ class MeasurementBatch:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
-    def rows(self, sl: slice) -> MeasurementBatch:
-        """The rows in ``sl`` (views, no copy)."""
+    def rows(self, sl: slice | np.ndarray) -> MeasurementBatch:
+        """The rows in ``sl``: views for a slice, copies for an index array."""
         return MeasurementBatch(self.t[sl], self.model[sl], self.z[sl], self.sigma[sl],
                                 self.s[sl], self.sv[sl], self.Qr[sl], self.sensor[sl],
                                 self.source_row[sl], self.station[sl], self.track[sl],
                                 self.sensor_ids)
+
+    def filter_rows(self, epoch_t: np.ndarray, meas_epoch: np.ndarray) -> FilterRows:
+        """The rows as the forward filter takes them (``estimation.forward.run_filter``), with
+        a pass's epochs ``epoch_t`` (E,) s and each row's epoch index ``meas_epoch`` (N,)."""
+        return FilterRows(epoch_t, meas_epoch, self.model, self.z, self.sigma, self.s, self.sv,
+                          self.Qr, self.sensor)
 
     def with_sigma(self, sigma: np.ndarray) -> MeasurementBatch:
         """A copy sharing every array but ``sigma`` (N, 6)."""

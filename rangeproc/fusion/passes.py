@@ -19,7 +19,6 @@ from rangeproc.estimation.fading import fading_params
 from rangeproc.estimation.forward import (
     FilterOutput,
     FilterPrior,
-    FilterRows,
     FilterSettings,
     run_filter,
 )
@@ -98,8 +97,7 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
             em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
         else:
             fwd = run_filter(
-                FilterRows(epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s,
-                           batch.sv, batch.Qr, batch.sensor),
+                batch.filter_rows(epoch_t, meas_epoch),
                 FilterPrior(x0, P0, q, x_lin if len(x_lin) == len(epoch_t) else None),
                 filter_settings(st, gate, maneuver_norm))
             gates, sigma_used, knot, fade = _gates(fwd), fwd.sigma_used, fwd.knot, fwd.fade
