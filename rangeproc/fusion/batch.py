@@ -50,6 +50,34 @@ class MeasurementBatch:
         return FilterRows(epoch_t, meas_epoch, self.model, self.z, self.sigma, self.s, self.sv,
                           self.Qr, self.sensor)
 
+    def series(self) -> list[np.ndarray]:
+        """Row indices (time ordered) of each independent series: sensor x MISTRAM station x
+        sensor track."""
+        key = (self.sensor * 1_000_003 + (self.station + 1)) * 1_000_003 + (self.track + 1)
+        order = np.argsort(key, kind="stable")      # stable keeps time order within a key
+        cuts = np.flatnonzero(np.diff(key[order])) + 1
+        return [g for g in np.split(order, cuts) if len(g) > 0]
+
+    def thinned(self, stride: int, least_rate_hz: float, least_rows: int) -> np.ndarray:
+        """Sorted indices of an evenly thinned subset of the rows: each series
+        (:meth:`series`) keeps every ``k``-th row and its last, ``k = stride`` unless that
+        leaves it under ``least_rate_hz`` rows per second of its own span or under
+        ``least_rows`` rows (then less thinned, or whole).
+
+        Thinning per series, not every ``stride``-th row of the merged batch: rows at equal
+        times come in a fixed order (sensor, then station), and a global stride aliases with
+        it, keeping some MISTRAM stations or sensors and dropping others for minutes."""
+        keep = np.zeros(len(self), dtype=bool)
+        for rows in self.series():
+            span = float(self.t[rows[-1]] - self.t[rows[0]])
+            need = max(least_rows, int(np.ceil(least_rate_hz * span)), 1)
+            k = max(1, min(stride, len(rows) // need))
+            keep[rows[::k]] = True
+            keep[rows[-1]] = True
+        if len(self):
+            keep[0] = keep[-1] = True               # the first and last epochs stay
+        return np.flatnonzero(keep)
+
     def with_sigma(self, sigma: np.ndarray) -> MeasurementBatch:
         """A copy sharing every array but ``sigma`` (N, 6)."""
         return MeasurementBatch(self.t, self.model, self.z, sigma, self.s, self.sv, self.Qr,

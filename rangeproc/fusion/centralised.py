@@ -39,6 +39,7 @@ from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm_models import CA, CV, MODEL_NAMES
+from rangeproc.estimation.registration import LATENCY_SLOT
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.tuning import (
     MAX_SEARCH_ROWS,
@@ -62,6 +63,16 @@ from rangeproc.fusion.registration import (
     apply_increments,
     calibration_covariance,
     register,
+    row_rates,
+)
+from rangeproc.fusion.thinning import (
+    PassRows,
+    expand,
+    gate_use,
+    independent_rows,
+    steps_at,
+    thinned_rows,
+    thinning_stride,
 )
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.settings import ProcessingSettings
@@ -397,6 +408,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     gate = gate_thresholds(p.gate_probability)
     if p.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
+    full = PassRows(batch, epoch_t, meas_epoch, grid)
+    work = _pass_rows(full, grid_t, p.noise_passes)   # the passes before the last one
     started = False                   # from the given prior (it then enters the spline fit)
     try:
         if from_prior:
@@ -408,12 +421,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         x0, P0 = prior_at(prior, float(epoch_t[0]))
         started = True
     if p.process_noise is not None:
-        q = np.full(len(epoch_t), p.process_noise)
-    else:
+        q = np.full(len(work.epoch_t), p.process_noise)
+    else:                     # the search decimates every row itself (the same on a long span)
         q0, q = start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
                                     settings.reset_after, settings.reset_inflation,
                                     max_rows=search_rows(float(epoch_t[-1] - epoch_t[0]),
                                                          settings.q_search_rows))
+        if work.kept is not None:
+            q = q[np.searchsorted(epoch_t, work.epoch_t)]
         log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
                  float(np.median(q)))
     x_lin = np.empty((0, x0.shape[0]))
@@ -423,11 +438,11 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
-    first_pass = partial(run_pass, batch, epoch_t, meas_epoch, x0, P0, q, gate,
+    first_pass = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
                          settings.with_family(imm_models=(), strong_tracking=False), x_lin)
     first = first_pass()
     if family.askf and rho is None:
-        rho = estimate_norm(first.xs[grid][:, 6:9])
+        rho = estimate_norm(first.xs[work.grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
@@ -443,26 +458,47 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                tick=tick):
         """The refinement passes from the pass in ``box`` (taken out of it, with the call
         that redoes it), constrained to ``rho`` when given."""
-        (out, redo), b, qq, noise, cal = box.pop(), batch, q, {}, None
-        q_used = q
+        (out, redo), rows, qq, noise, cal = box.pop(), work, q, {}, None
+        b, q_used, q_next, expanded = rows.batch, q, None, None
         why = np.zeros(batch.z.shape, dtype=np.int8)
+
+        def every_row():
+            """The last thinned pass carried to every row (module ``fusion.thinning``)."""
+            nonlocal out, redo, b, qq, q_used, q_next, rows, expanded
+            expanded, b, out, redo, qq, q_next = _to_every_row(
+                full, rows, out, qq, noise, cal, settings, gate, start, rho)
+            q_used, rows = qq, full
+
+        def residuals_of(sensors) -> np.ndarray:
+            """``out``'s residuals with those of the rows of ``sensors`` recomputed."""
+            if expanded is None:
+                return corrected_residuals(b, sensors, out, rows.meas_epoch)
+            res = out.res.copy()
+            at = np.flatnonzero(np.isin(b.sensor, list(sensors)))
+            res[at] = expanded.residuals(b, rows.meas_epoch, at)[0]
+            return res
+
         for k in range(p.noise_passes):
-            if settings.refraction is not None and k == 0:   # geometry of the first pass
-                b = refraction_corrections(b, out.xs, meas_epoch, settings.refraction)
+            if rows.kept is not None and k == p.noise_passes - 1:   # the final pass: all rows
+                every_row()
+            elif settings.refraction is not None and k == 0:   # geometry of the first pass
+                b = refraction_corrections(b, out.xs, rows.meas_epoch, settings.refraction)
                 corrected = np.flatnonzero(np.asarray(settings.refraction.surface_n) > 0)
-                out = out._replace(res=corrected_residuals(b, corrected, out, meas_epoch))
+                out = out._replace(res=residuals_of(corrected))
             if settings.calibration:
-                cal, dc, rate = register(b, out.xs, out.res, epoch_t, meas_epoch, grid, qq,
-                                         settings.calibration, cal)
+                cal, dc, rate = register(b, out.xs, out.res, rows.epoch_t, rows.meas_epoch,
+                                         rows.grid, qq, settings.calibration, cal)
                 if dc.any():            # the residuals of the corrected rows, same track
                     b = apply_increments(b, cal.terms, dc, rate)
                     moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
-                    out = out._replace(res=corrected_residuals(b, moved, out, meas_epoch))
+                    out = out._replace(res=residuals_of(moved))
             if p.adapt_noise:
                 sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
                 b = b.with_sigma(sigma)
-            if p.process_noise is None and out.em is not None:
-                qq = local_process_noise(epoch_t, out.em, window=settings.q_window,
+            if q_next is not None:
+                qq, q_next = q_next, None
+            elif p.process_noise is None and out.em is not None:
+                qq = local_process_noise(rows.epoch_t, out.em, window=settings.q_window,
                                          ceiling=max(settings.q_grid))
             log.info("pass %d: median q = %.3g m^2/s^5", k + 2, float(np.median(qq)))
             # the pass refined here is let go before the next runs (its covariances and
@@ -470,9 +506,9 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             # done again from its inputs (the same values), its residuals taken at the rows
             # as corrected since
             resets_before, q_before, redo_before = out.resets, q_used, redo
-            redo = partial(run_pass, b, epoch_t, meas_epoch, *start, qq, gate, settings,
-                           out.xs, rho or 0.0)
-            out = None
+            redo = partial(run_pass, b, rows.epoch_t, rows.meas_epoch, *start, qq, gate,
+                           settings, out.xs, rho or 0.0)
+            expanded = out = None
             try:
                 out = redo()
                 failed = ""
@@ -488,11 +524,15 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 out = None
                 out = redo_before()
                 out = out._replace(res=corrected_residuals(
-                    b, range(len(b.sensor_ids)), out, meas_epoch))
+                    b, range(len(b.sensor_ids)), out, rows.meas_epoch))
                 q_used = q_before
                 if k + 1 < p.noise_passes:
                     tick(p.noise_passes - k - 1, "")
                 break
+        if rows.kept is not None:       # stopped on a thinned pass: it is redone on every row
+            every_row()
+            out = redo()
+            why = np.zeros(batch.z.shape, dtype=np.int8)
         return out, q_used, noise, why, cal
 
     out, q, noise, why, cal = refine(box, rho)
@@ -514,6 +554,67 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                         maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
                         model_names=tuple(MODEL_NAMES[c] for c in family.imm_models),
                         calibration=(cal,) if cal is not None else ())
+
+
+def _pass_rows(full: PassRows, grid_t: np.ndarray, noise_passes: int) -> PassRows:
+    """The rows of the passes before the last: every row, or on a long span an evenly
+    thinned subset (``fusion.thinning``) on the same output grid."""
+    stride = thinning_stride(len(full.batch), noise_passes)
+    if stride == 1:
+        return full
+    kept = thinned_rows(full.batch, stride)
+    part = full.batch.rows(kept)
+    log.info("long span: %d rows; passes 1 to %d on %d of them (each series thinned evenly, "
+             "by %d at most), the final pass on every row", len(full.batch), noise_passes,
+             len(kept), stride)
+    return PassRows(part, *_epochs(part.t, grid_t), kept)
+
+
+def _to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: np.ndarray,
+                  noise: dict[tuple[int, int], float], cal: Calibration | None,
+                  settings: EstimatorSettings, gate: np.ndarray, start, rho: float | None):
+    """Carry the last thinned pass ``out`` (on ``thin``'s rows, with process noise
+    ``q_used``) to every row of ``full`` before the final pass (``fusion.thinning``).
+
+    The full rows get the refraction and the calibration found so far, their residuals at
+    the carried track, and the gate's verdict (the thinned filter's for its own rows; for
+    the others the one-component gate with the noise estimated so far, ``noise``).
+
+    Returns: the carried track (``thinning.Expanded``), the corrected full batch, the pass
+    result on every row, the pass before on every row (a call), its process noise and the
+    final pass's (from the thinned pass's EM statistic; None without one), both (E,).
+    """
+    p = settings.processing
+    expanded = expand(thin, out.xs, out.Ps, full.epoch_t)
+    b = full.batch
+    if settings.refraction is not None:
+        b = refraction_corrections(b, expanded.xs, full.meas_epoch, settings.refraction)
+    if cal is not None and cal.applied.any():
+        latency = any(t.slot == LATENCY_SLOT and a != 0.0
+                      for t, a in zip(cal.terms, cal.applied))
+        rate = row_rates(b, expanded.xs, full.epoch_t, full.meas_epoch, full.grid,
+                         settings.calibration, cal.terms) if latency else None
+        b = apply_increments(b, cal.terms, cal.applied,
+                             rate if rate is not None else np.zeros((len(b), 4)))
+    res, hph = expanded.residuals(b, full.meas_epoch)
+    sigma = b.sigma.copy()
+    for (sensor, c), value in noise.items():
+        sigma[b.sensor == sensor, c] = value
+    used = gate_use(res, hph, sigma, float(gate[1]))
+    used[thin.kept] = out.used
+    hph[independent_rows(len(b), thin.kept)] *= -1.0   # not in the thinned smoother's data
+    q_full = steps_at(thin.epoch_t, q_used, full.epoch_t)
+    q_next = None
+    if p.process_noise is None and out.em is not None:
+        q_next = steps_at(thin.epoch_t, local_process_noise(
+            thin.epoch_t, out.em, window=settings.q_window, ceiling=max(settings.q_grid)),
+            full.epoch_t)
+    n = len(b)
+    result = PassResult(expanded.xs, expanded.Ps, None, np.full(n, np.nan),
+                        np.zeros(n, dtype=np.int64), used, res, hph, out.resets, b)
+    redo = partial(run_pass, b.with_sigma(sigma), full.epoch_t, full.meas_epoch, *start,
+                   q_full, gate, settings, expanded.xs, rho or 0.0)
+    return expanded, b, result, redo, q_full, q_next
 
 
 def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,

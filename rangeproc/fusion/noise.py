@@ -35,15 +35,6 @@ HUBER_K = 2.0
 MIN_ROWS = 20
 
 
-def _groups(batch: MeasurementBatch) -> list[np.ndarray]:
-    """Row indices (time ordered) of each independent series: sensor x station x track."""
-    key = (batch.sensor * 1_000_003 + (batch.station + 1)) * 1_000_003 + (batch.track + 1)
-    order = np.argsort(key, kind="stable")          # stable keeps time order within a key
-    ks = key[order]
-    cuts = np.flatnonzero(np.diff(ks)) + 1
-    return [g for g in np.split(order, cuts) if len(g) > 0]
-
-
 def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
     """Per-row sigma (N, 6): the a-priori sigma raised to the third-difference noise estimate.
 
@@ -51,7 +42,7 @@ def difference_sigma(batch: MeasurementBatch) -> np.ndarray:
     series' median step), so gaps do not count as noise.
     """
     sigma = batch.sigma.copy()
-    for rows in _groups(batch):
+    for rows in batch.series():
         if len(rows) < MIN_ROWS:
             continue
         t = batch.t[rows]
@@ -85,7 +76,9 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
 
     Args:
         batch: the batch (its ``sigma`` is the fallback where data are too few).
-        res, hph: (N, 6) from :func:`rangeproc.estimation.residuals.smoothed_residuals`.
+        res, hph: (N, 6) from :func:`rangeproc.estimation.residuals.smoothed_residuals`;
+            for a row the smoother did not use (``fusion.thinning``) its residual variance is
+            ``sigma^2 + H P H^T``, and ``hph`` is then given negated.
         used: (N, 6) components the gate accepted (the global scale uses these only).
         window: rows in the running-median window of the local scale.
         burst_ratio: local/global scale ratio above which a row takes the local scale.
@@ -109,15 +102,15 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
             if used_c.sum() < MIN_ROWS:
                 continue
             ru = r[used_c]
-            robust = float(np.sqrt(
+            robust = float(np.sqrt(max(
                 (MAD_TO_SIGMA * np.median(np.abs(ru - np.median(ru)))) ** 2
-                + np.median(hph[rows[used_c], c])))
+                + np.median(hph[rows[used_c], c]), 0.0)))
             sig = np.full(len(rows), robust)
             idx = np.flatnonzero(have)
             burst = np.zeros(len(rows), dtype=bool)
             if len(idx) >= window:
                 local = MAD_TO_SIGMA * median_filter(np.abs(r[idx]), size=window, mode="nearest")
-                local = np.sqrt(local ** 2 + hph[rows[idx], c])
+                local = np.sqrt(np.maximum(local ** 2 + hph[rows[idx], c], 0.0))
                 local = np.where(local > burst_ratio * robust, local, 0.0)
                 # dilate by a quarter window: enough to cover the edge rows a centred running
                 # median misses, without spreading burst sigmas far onto normal rows
@@ -148,4 +141,4 @@ def _clipped_rms(r: np.ndarray, hph: np.ndarray, use: np.ndarray, robust: float)
     keep = use & (np.abs(np.nan_to_num(r)) < _CLIP * robust)
     if keep.sum() < MIN_ROWS:
         return robust
-    return float(np.sqrt(np.mean(r[keep] ** 2) / _CLIP_VAR + np.mean(hph[keep])))
+    return float(np.sqrt(max(np.mean(r[keep] ** 2) / _CLIP_VAR + np.mean(hph[keep]), 0.0)))

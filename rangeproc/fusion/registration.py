@@ -348,6 +348,24 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     return cal, applied - total, rate
 
 
+def row_rates(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
+              meas_epoch: np.ndarray, grid: np.ndarray,
+              specs: tuple[SensorCalibration | None, ...], terms: tuple[Term, ...]
+              ) -> np.ndarray:
+    """(N, 4) the rate ``dh/dt`` of each row's components at the track ``xs`` (E, n), as
+    :func:`register` returns it (for :func:`apply_increments`' latency correction of rows
+    the registration did not solve with)."""
+    node_t = _nodes(epoch_t, grid)
+    moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
+    mv_index, rates = axes_rate(batch, moving)
+    slots = _slots_table(terms, len(batch.sensor_ids))
+    _, rate = postfit(meas_epoch, _nearest(node_t, batch.t), node_t, batch.t, batch.model,
+                      batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs,
+                      np.zeros((len(batch), 6)), np.zeros((len(node_t), N_NODE)),
+                      np.zeros(len(terms)))
+    return rate
+
+
 def apply_increments(batch: MeasurementBatch, terms: tuple[Term, ...], dc: np.ndarray,
                      rate: np.ndarray) -> MeasurementBatch:
     """The batch with the calibration increments ``dc`` removed from its rows (new ``z`` and,
