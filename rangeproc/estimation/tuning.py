@@ -28,6 +28,11 @@ MAX_SEARCH_ROWS = 20_000
 #: (3.7e3 or 1.4e4 m^2/s^5) that tipped on 1e-15 changes of the input; 180,000 rows give a
 #: smooth curve with one maximum (q = 27), the same for both inputs.
 MIN_SEARCH_RATE_HZ = 50.0
+#: Each series (sensor x station x track) of the search keeps at least this many rows per
+#: second of its span, and at least :data:`SEARCH_LEAST_ROWS` rows: a slow sensor is thinned
+#: less than a fast one, never into absence (``MeasurementBatch.thinned``).
+SEARCH_LEAST_RATE_HZ = 2.0
+SEARCH_LEAST_ROWS = 100
 
 
 def search_rows(span_s: float, max_rows: int = MAX_SEARCH_ROWS) -> int:
@@ -42,8 +47,9 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
                         max_rows: int = MAX_SEARCH_ROWS) -> tuple[float, np.ndarray]:
     """Starting white-jerk PSD: a global value and a local profile, by innovation likelihood.
 
-    The filter runs once per candidate q over an evenly decimated subset of the rows (at most
-    ``max_rows``); each row's log-likelihood contribution is kept (rejected rows count
+    The filter runs once per candidate q over an evenly decimated subset of the rows (about
+    ``max_rows``: each series thinned by the same stride, ``MeasurementBatch.thinned``); each
+    row's log-likelihood contribution is kept (rejected rows count
     at the gate, so a q that rejects more data is not rewarded).
 
     Returns:
@@ -55,7 +61,8 @@ def start_process_noise(batch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarr
         so a manoeuvre's onset is covered.
     """
     step = max(1, int(np.ceil(len(batch.t) / max_rows)))
-    rows = np.arange(0, len(batch.t), step)
+    rows = batch.thinned(step, SEARCH_LEAST_RATE_HZ, SEARCH_LEAST_ROWS) if step > 1 \
+        else np.arange(len(batch.t))
     t = batch.t[rows]
     sub_epochs = np.unique(t)
     meas_epoch = np.searchsorted(sub_epochs, t).astype(np.int64)
