@@ -88,8 +88,8 @@ lint: $(STAMP)
 	$(BIN)/python -m pip install --quiet ruff
 	$(BIN)/ruff check rangeproc tests
 
-## clean: outputs, and numba's compiled-kernel caches (numba does not notice a change to an
-## inline helper in another module, e.g. estimation/kernels.py: clean after editing one).
+## clean: outputs, and numba cache files an older version left in the source tree (the
+## kernels are cached outside it, keyed to their source: nothing to clean after an edit).
 clean:
 	rm -rf out bench/results.json .pytest_cache
 	find rangeproc -name '*.nbi' -delete -o -name '*.nbc' -delete

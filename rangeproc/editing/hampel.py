@@ -76,14 +76,14 @@ WRAPPED = frozenset({"azimuth", "yaw", "roll"})
 REASON = "pre-edit"
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _median_of_sorted(buf: np.ndarray, n: int) -> float:
     """Median of the ascending ``buf[:n]``."""
     h = n // 2
     return buf[h] if n % 2 == 1 else 0.5 * (buf[h - 1] + buf[h])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sorted_insert(buf: np.ndarray, n: int, v: float) -> int:
     """Insert ``v`` into the ascending ``buf[:n]``; returns the new length."""
     j = n - 1
@@ -94,7 +94,7 @@ def _sorted_insert(buf: np.ndarray, n: int, v: float) -> int:
     return n + 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _median(buf: np.ndarray, n: int) -> float:
     """Median of ``buf[:n]`` (sorted in place; ``n`` small: insertion sort)."""
     for i in range(1, n):
@@ -102,7 +102,7 @@ def _median(buf: np.ndarray, n: int) -> float:
     return _median_of_sorted(buf, n)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sorted_remove(buf: np.ndarray, n: int, v: float) -> int:
     """Remove one element equal to ``v`` from the ascending ``buf[:n]``; the new length."""
     j = 0

@@ -45,7 +45,7 @@ SH_MIN_RATIO = 1e-4
 SH_MAX_RATIO = 1e6
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sh_adapt(sensor: int, idx: np.ndarray, m: int, sig: np.ndarray, y: np.ndarray,
              count: np.ndarray, acc: np.ndarray, window: int, estimate_mean: bool) -> None:
     """Scale the a-priori sigmas ``sig[:m]`` of components ``idx[:m]`` by the windowed ratio and
@@ -61,7 +61,7 @@ def sh_adapt(sensor: int, idx: np.ndarray, m: int, sig: np.ndarray, y: np.ndarra
             y[a] -= acc[g, 1] / n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sh_record(g: int, ratio: float, innovation: float, buf: np.ndarray, count: np.ndarray,
               pos: np.ndarray, acc: np.ndarray, window: int) -> None:
     """Push one accepted sample of series ``g`` into its window (running sums kept exact by a
@@ -88,7 +88,7 @@ def sh_record(g: int, ratio: float, innovation: float, buf: np.ndarray, count: n
     pos[g] = p
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sh_reset(count: np.ndarray, pos: np.ndarray, acc: np.ndarray) -> None:
     """Restart every window from the a-priori noise (the divergence fallback)."""
     for g in range(count.shape[0]):

@@ -40,7 +40,7 @@ MANEUVER = 6
 CONSTRAINT_SIGMA_FRACTION = 1e-3
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def norm_update(x: np.ndarray, P: np.ndarray, x_lin: np.ndarray, rho: float,
                 Pu: np.ndarray) -> bool:
     """Scalar update of ``x`` (n,), ``P`` (n, n) with the pseudo-measurement ``||d|| = rho``

@@ -91,7 +91,7 @@ def fading_params(forgetting: float, weakening: float,
     return stf
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def fading_factors(stf: np.ndarray, v_mean: float, m: int, G: np.ndarray, P: np.ndarray,
                    dt: float, q: float, lam: np.ndarray) -> bool:
     """Fading factors ``lam`` (9,) for one epoch (module docstring); True when any exceeds 1.
@@ -128,7 +128,7 @@ def fading_factors(stf: np.ndarray, v_mean: float, m: int, G: np.ndarray, P: np.
     return faded
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _qg_trace(G: np.ndarray, dt: float, q: float, ap: float, av: float) -> float:
     """``sum_i alpha^i (Q G)_ii`` with ``alpha`` = ``ap`` on position, ``av`` on velocity and
     ``G = H^T H`` (6, 6): with unit ratios, ``tr(H Q H^T)``."""
@@ -144,7 +144,7 @@ def _qg_trace(G: np.ndarray, dt: float, q: float, ap: float, av: float) -> float
     return acc
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def apply_fading(P: np.ndarray, lam: np.ndarray, dt: float, q: float) -> None:
     """``P <- Lambda^(1/2) (P - Q) Lambda^(1/2) + Q`` in place on the kinematic block, with
     ``P`` the unfaded prediction and ``Q = Q(dt, q)`` (so ``P - Q = F P F^T``)."""

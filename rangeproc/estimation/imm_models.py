@@ -140,7 +140,7 @@ def switch_matrix(Lam: np.ndarray, dt: float, out: np.ndarray, work: np.ndarray)
             out[i, j] /= acc
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
              T: np.ndarray) -> None:
     """``x <- F x``, ``P <- F P F^T + Q`` (dense, in place; ``xt`` (n,), ``T`` (n, n) work)."""
@@ -169,7 +169,7 @@ def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt
             P[j, i] = acc
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
              dx: np.ndarray) -> None:
     """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``.

@@ -20,7 +20,7 @@ from numba import njit
 N_OBSERVED = 6
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def predict_state(x: np.ndarray, dt: float) -> None:
     """``x <- F x`` for the CA block (in place); extra states unchanged."""
     h2 = 0.5 * dt * dt
@@ -29,7 +29,7 @@ def predict_state(x: np.ndarray, dt: float) -> None:
         x[3 + a] += dt * x[6 + a]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
     """``out <- F P`` (n, n) using the Kronecker structure of F."""
     n = P.shape[0]
@@ -46,7 +46,7 @@ def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
             out[i, j] = P[i, j]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
     """``out <- F^T B`` (n, n) using the Kronecker structure of F (F^T is lower triangular)."""
     n = B.shape[0]
@@ -63,7 +63,7 @@ def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
             out[i, j] = B[i, j]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
     """``P <- F P F^T + Q`` in place (symmetric result); ``FP`` (n, n) work, left = F P.
 
@@ -90,7 +90,7 @@ def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
             P[j, i] = v
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def add_q(P: np.ndarray, dt: float, q: float) -> None:
     """``P <- P + Q(dt, q)`` for the CA block."""
     dt2 = dt * dt
@@ -113,7 +113,7 @@ def add_q(P: np.ndarray, dt: float, q: float) -> None:
         P[6 + a, 6 + a] += q22
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def predict_epoch(x: np.ndarray, P: np.ndarray, FP: np.ndarray, epoch_t: np.ndarray,
                   q_steps: np.ndarray, k: int) -> float:
     """Predict ``x``, ``P`` (in place) from epoch ``k - 1`` to epoch ``k`` with the step's

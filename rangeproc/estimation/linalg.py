@@ -12,7 +12,7 @@ from numba import njit
 
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def pack(P: np.ndarray, out: np.ndarray) -> None:
     """Store the lower triangle of symmetric ``P`` (n, n) into ``out`` (n(n+1)/2,)."""
     n = P.shape[0]
@@ -23,7 +23,7 @@ def pack(P: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def unpack(p: np.ndarray, out: np.ndarray) -> None:
     """Inverse of :func:`pack`: fill the full symmetric ``out`` (n, n)."""
     n = out.shape[0]
@@ -53,7 +53,7 @@ def _unpack_rows(Ps: np.ndarray, m: int) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     """Lower Cholesky factor of the leading (m, m) block of ``S``, in place. False if not PD."""
     for j in range(m):
@@ -74,7 +74,7 @@ def cholesky_inplace(S: np.ndarray, m: int) -> bool:
     return True
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def chol_solve_inplace(L: np.ndarray, m: int, B: np.ndarray, ncols: int) -> None:
     """Solve ``(L L^T) X = B`` for the leading (m, ncols) block of ``B``, in place.
 

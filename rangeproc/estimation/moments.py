@@ -26,7 +26,7 @@ EKF = 0
 UKF = 1
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def ekf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                 x: np.ndarray, x_lin: np.ndarray, use_lin: bool, P: np.ndarray,
                 idx: np.ndarray, m: int, h: np.ndarray, H: np.ndarray, y6: np.ndarray,
@@ -255,7 +255,7 @@ def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np
     return True
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray,
                 Qr: np.ndarray, x: np.ndarray, x_lin: np.ndarray, use_lin: bool,
                 P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray, L: np.ndarray,

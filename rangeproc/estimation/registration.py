@@ -45,7 +45,7 @@ MOUNT_SLOT = 4
 N_NODE = 9
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def row_design(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                Qdot: np.ndarray, moving: bool, dt: float, h: np.ndarray, H: np.ndarray,
                hrow: np.ndarray, arow: np.ndarray) -> None:

@@ -91,7 +91,7 @@ def spline_params(probability: float) -> np.ndarray:
     return out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def anomaly_threshold(spl: np.ndarray, m: int) -> float:
     """``chi2_m`` at the tabulated probability: exact up to ``SPL_TABLE`` dof, then
     Wilson-Hilferty ``m (1 - 2/(9m) + z sqrt(2/(9m)))^3``."""
@@ -102,7 +102,7 @@ def anomaly_threshold(spl: np.ndarray, m: int) -> float:
     return m * v * v * v
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def anomaly_inflation(chi: float, m: int, G: np.ndarray, P: np.ndarray) -> float:
     """Factor on the predicted kinematic covariance at an anomalous epoch: the excess of the
     whitened innovation over its noise share, ``(chi2 - M) / tr(H P H^T)`` (``G = H^T H``
@@ -118,7 +118,7 @@ def anomaly_inflation(chi: float, m: int, G: np.ndarray, P: np.ndarray) -> float
     return min(max((chi - m) / tr, 1.0), SPL_MAX_INFLATION)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
     """Zhou et al. 2001 eqs. 5/6: the known jerk input's share of one step, added to ``F x``."""
     h2 = 0.5 * dt * dt
@@ -129,7 +129,7 @@ def add_jerk(x: np.ndarray, jerk: np.ndarray, dt: float) -> None:
         x[6 + a] += dt * jerk[a]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def segment_jerk(x: np.ndarray, a_knot: np.ndarray, span: float, jerk: np.ndarray) -> None:
     """Re-estimate the jerk of the segment whose knot was ``span`` seconds ago (Zhou et al. 2001
     2.3.2) from the filter's acceleration corrections since then: ``(a_now - a_knot) / span``

@@ -32,7 +32,7 @@ from rangeproc.models.measurement import N_COMPONENTS
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def measured_components(z_row: np.ndarray, sigma_row: np.ndarray, idx: np.ndarray,
                         sig_row: np.ndarray) -> int:
     """Write into ``idx`` the components of one row (6,) that are measured (value not NaN,
@@ -46,7 +46,7 @@ def measured_components(z_row: np.ndarray, sigma_row: np.ndarray, idx: np.ndarra
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def record_row(i: int, nis_row: float, mask: int, ll_row: float, loglik: float,
                nis: np.ndarray, rejected: np.ndarray, ll_rows: np.ndarray) -> float:
     """Store row ``i``'s gate results (chi-square, rejected bit mask, log-likelihood term)
@@ -58,7 +58,7 @@ def record_row(i: int, nis_row: float, mask: int, ll_row: float, loglik: float,
     return total
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def row_workspace(n: int):
     """Work arrays of :func:`row_moments` and :func:`gated_update` for an n-state filter:
     ``(h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
@@ -72,7 +72,7 @@ def row_workspace(n: int):
             np.empty((2 * n + 1, m)), np.empty(n))
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
                  Hs: np.ndarray, sel: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
                  gate: np.ndarray, joseph: bool, yw: np.ndarray, HP: np.ndarray,
@@ -168,7 +168,7 @@ def gated_update(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray,
     return nis, True, logdet
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def update_row(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
                Hs: np.ndarray, idx: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
                gate: np.ndarray, joseph: bool, stats: bool, sel: np.ndarray, sig: np.ndarray,

@@ -18,7 +18,7 @@ EXIT_SCALES = 40.0
 _BLOCK = 128  # rows traced together: the stage loops over a block vectorise (SIMD)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _exp(z: float) -> float:
     """``exp(z)`` for ``z`` in [-40, 40] (clamped), relative error < 2e-8, vectorisable.
 

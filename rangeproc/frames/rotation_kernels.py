@@ -39,7 +39,7 @@ def euler_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.n
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _rotvec(R: np.ndarray, out: np.ndarray) -> None:
     """Rotation vector (angle in [0, pi] times unit axis) of the rotation matrix ``R``, via
     its unit quaternion (Shepperd's choice of the largest component: exact near pi too)."""

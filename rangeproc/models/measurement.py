@@ -53,7 +53,7 @@ def wrap_angle(a: float) -> float:
     return w
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
             h: np.ndarray, H: np.ndarray) -> None:
     """Predicted measurement ``h`` (6,) and Jacobian ``H`` (6, n) at state ``x``, in place.
@@ -124,7 +124,7 @@ def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.nda
         H[3, 3 + j] = a_r                                 # dRdot/dv = (d/R)^T Qr
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def innovation(model: int, z: np.ndarray, h: np.ndarray, out: np.ndarray) -> None:
     """Residual ``out = z - h`` (6,), azimuth wrapped to (-pi, pi] for SPHERICAL; NaN kept."""
     for i in range(z.shape[0]):

@@ -48,7 +48,7 @@ Q_BLOCK = 1_000
 DIFFUSE = 1e4
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _predict(x: np.ndarray, P: np.ndarray, dt: float, q: float) -> None:
     """1-D constant-acceleration prediction over ``dt`` (s) with white-jerk PSD ``q``, in place
     on ``x`` (3,) and ``P`` (3, 3): ``F x``, ``F P F^T + Q``."""
@@ -77,7 +77,7 @@ def _predict(x: np.ndarray, P: np.ndarray, dt: float, q: float) -> None:
     P[2, 2] = p22 + q * dt
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _update(x: np.ndarray, P: np.ndarray, z: float, r: float) -> None:
     """Scalar position update of ``x`` (3,), ``P`` (3, 3) by ``z`` with variance ``r``."""
     s = P[0, 0] + r
@@ -98,7 +98,7 @@ def _update(x: np.ndarray, P: np.ndarray, z: float, r: float) -> None:
     P[2, 1] = P[1, 2]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _start(x: np.ndarray, P: np.ndarray, z: float, sigma: float, scale: float) -> None:
     """Diffuse start at measurement ``z``: velocity/acceleration unknown (``scale`` per s)."""
     x[0], x[1], x[2] = z, 0.0, 0.0
