@@ -413,7 +413,21 @@ def pipeline_bench(a: argparse.Namespace) -> dict:
         wall, r = _pipeline_subprocess(cfg, tmp)
     return {"config": str(cfg.relative_to(ROOT)), "duration_s": a.duration,
             "rate_scale": scale, "probe_rows_scale1": base, "target_rows_requested": a.rows,
-            **pipeline_record(cfg, written, sim_s, warm_s, wall, r)}
+            **pipeline_record(cfg, written, sim_s, warm_s, wall, r),
+            "score": sortie_score(cfg)}
+
+
+def sortie_score(cfg: Path) -> dict:
+    """The timed run's trajectory against the sortie's truth.csv (``rangeproc.evaluate``, in
+    this process, not timed): position and velocity RMSE, NEES and its 95 % bounds, 3-sigma
+    coverage, so a faster run is seen to be as accurate (the long-sortie decision: within
+    5 % of the previous RMSE, NEES within its bounds)."""
+    from rangeproc.evaluate import evaluate_run
+    metrics = evaluate_run(cfg.parent / "out", cfg.parent / "truth.csv")
+    t = next(iter(metrics["targets"].values()))
+    return {k: t[k] for k in ("n_epochs", "pos_rmse", "pos_rmse_enu", "vel_rmse",
+                              "vel_rmse_enu", "nees_pos_mean", "nees_pos_chi2_95",
+                              "inside_3sigma_enu")}
 
 
 def pipeline_record(cfg: Path, written: dict[str, int], sim_s: float | None, warm_s: float,
@@ -638,6 +652,13 @@ def print_pipeline(p: dict, title: str = "Pipeline") -> None:
     print(f"peak RSS {p['peak_rss_bytes'] / 2**20:.0f} MiB (after imports "
           f"{p['baseline_rss_bytes'] / 2**20:.0f} MiB; "
           f"{p['peak_above_baseline_bytes_per_meas']:.0f} B per row above that)")
+    sc = p.get("score")
+    if sc and "pos_rmse" in sc:         # (the several-objects record's score is its own)
+        lo, hi = sc["nees_pos_chi2_95"]
+        print(f"against truth.csv: position RMSE {sc['pos_rmse']:.3f} m, velocity RMSE "
+              f"{sc['vel_rmse']:.4f} m/s, NEES {sc['nees_pos_mean']:.2f} (95 % bounds "
+              f"{lo:.2f} to {hi:.2f}), inside 3 sigma "
+              + "/".join(f"{v:.3f}" for v in sc["inside_3sigma_enu"]) + " (E/N/U)")
 
 
 def multi_ratio_line(m: dict) -> str:
@@ -780,6 +801,10 @@ def print_previous(path: Path, res: dict) -> None:
                      f"{res['pipeline']['process_wall_s']:.1f} s "
                      f"({old['pipeline']['duration_s']:g} -> {res['pipeline']['duration_s']:g}"
                      " s sortie)")
+        was, now = old["pipeline"].get("score"), res["pipeline"].get("score")
+        if was and now:
+            parts.append(f"its position RMSE {was['pos_rmse']:.3f} -> {now['pos_rmse']:.3f} m,"
+                         f" velocity {was['vel_rmse']:.4f} -> {now['vel_rmse']:.4f} m/s")
     if "multi" in old and "multi" in res:
         parts.append(f"several objects {old['multi']['us_per_meas_wall']:.1f} -> "
                      f"{res['multi']['us_per_meas_wall']:.1f} us/row "
