@@ -156,7 +156,7 @@ def test_a_thinned_run_says_so_and_matches_the_whole_run_within_five_percent(thi
     assert min(thin["inside_3sigma_enu"]) >= 0.95
 
 
-def _thinned_span(monkeypatch, fail_call: int | None = None):
+def _thinned_span(monkeypatch, fail_call: int | None = None, filter_name: str = "ekf"):
     """A 100 Hz GPS minute, its passes before the last on every 4th row; the run_pass calls."""
     from rangeproc.errors import NumericalError
     from rangeproc.fusion import centralised
@@ -181,7 +181,8 @@ def _thinned_span(monkeypatch, fail_call: int | None = None):
     monkeypatch.setattr(centralised, "run_pass", spy)
     batch = gps_line_batch(np.arange(0.0, 60.0, 0.01), np.random.default_rng(8), noise=3.0,
                            velocity=(100.0, 50.0, -2.0), accel=(1.0, 0.0, 0.0))
-    res = fuse_span(batch, 10.0, EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
+    res = fuse_span(batch, 10.0, EstimatorSettings(
+        processing=ProcessingSettings(noise_passes=2, filter=filter_name)))
     return batch, res, calls
 
 
@@ -200,3 +201,13 @@ def test_a_failed_thinned_pass_still_ends_with_a_pass_on_every_row(monkeypatch, 
     assert "the pass it refines is kept" in caplog.text
     assert calls == [1501, 1501, 1501, len(batch)]        # pass 1 again, then every row
     assert len(res.nis) == len(batch) and np.isfinite(res.nis).all()
+
+
+@pytest.mark.parametrize("filter_name", ["ukf", "imm", "sage-husa", "stukf", "askf", "spline"])
+def test_every_filter_ends_a_thinned_span_on_every_row(monkeypatch, filter_name):
+    batch, res, calls = _thinned_span(monkeypatch, filter_name=filter_name)
+    assert calls[:2] == [1501, 1501] and calls[-1] == len(batch)
+    assert len(res.nis) == len(batch) and len(res.q) == len(res.epoch_t)
+    truth = np.array([0.0, 0.0, 3000.0]) + np.outer(res.epoch_t, (100.0, 50.0, -2.0)) \
+        + 0.5 * np.outer(res.epoch_t ** 2, (1.0, 0.0, 0.0))
+    assert np.sqrt(np.mean((res.xs[res.grid, :3] - truth[res.grid]) ** 2)) < 1.0
