@@ -39,7 +39,6 @@ from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm_models import CA, CV, MODEL_NAMES
-from rangeproc.estimation.registration import LATENCY_SLOT
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.tuning import (
     MAX_SEARCH_ROWS,
@@ -63,15 +62,11 @@ from rangeproc.fusion.registration import (
     apply_increments,
     calibration_covariance,
     register,
-    row_rates,
 )
 from rangeproc.fusion.thinning import (
     PassRows,
-    expand,
-    gate_use,
-    independent_rows,
-    steps_at,
-    thinned_rows,
+    carry_to_every_row,
+    thinned_pass_rows,
     thinning_stride,
 )
 from rangeproc.quantiles import chi2_ppf
@@ -240,14 +235,6 @@ def output_grid(t_first: float, t_last: float, rate_hz: float) -> np.ndarray:
     return np.arange(k0, k1 + 1, dtype=np.float64) / rate_hz
 
 
-def _epochs(t_rows: np.ndarray, grid_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    epoch_t = np.union1d(t_rows, grid_t)
-    meas_epoch = np.searchsorted(epoch_t, t_rows)
-    grid = np.zeros(len(epoch_t), dtype=bool)
-    grid[np.searchsorted(epoch_t, grid_t)] = True
-    return epoch_t, meas_epoch.astype(np.int64), grid
-
-
 def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
     """Mean squared whitened residual over the used components (1 for a consistent fit)."""
     w = np.where(used, res / sigma, 0.0)
@@ -403,13 +390,18 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                             "first row", lead, exc)
     if grid_t is None:
         grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)
-    epoch_t, meas_epoch, grid = _epochs(batch.t, grid_t)
+    full = PassRows.of(batch, grid_t)
+    epoch_t, meas_epoch, grid = full.epoch_t, full.meas_epoch, full.grid
     p, family = settings.processing, settings.family
     gate = gate_thresholds(p.gate_probability)
     if p.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
-    full = PassRows(batch, epoch_t, meas_epoch, grid)
-    work = _pass_rows(full, grid_t, p.noise_passes)   # the passes before the last one
+    full = full._replace(batch=batch)
+    work = thinned_pass_rows(full, grid_t, p.noise_passes)   # the passes before the last one
+    if work.kept is not None:
+        log.info("long span: %d rows; passes 1 to %d on %d of them (each series thinned evenly,"
+                 " by %d at most), the final pass on every row", len(batch), p.noise_passes,
+                 len(work.kept), thinning_stride(len(batch), p.noise_passes))
     started = False                   # from the given prior (it then enters the spline fit)
     try:
         if from_prior:
@@ -465,8 +457,10 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         def every_row():
             """The last thinned pass carried to every row (module ``fusion.thinning``)."""
             nonlocal out, redo, b, qq, q_used, q_next, rows, expanded
-            expanded, b, out, redo, qq, q_next = _to_every_row(
-                full, rows, out, qq, noise, cal, settings, gate, start, rho)
+            expanded, b, out, before, qq, q_next = carry_to_every_row(
+                full, rows, out, qq, noise, cal, settings, gate)
+            redo = partial(run_pass, before, full.epoch_t, full.meas_epoch, *start, qq, gate,
+                           settings, expanded.xs, rho or 0.0)   # the pass before, every row
             q_used, rows = qq, full
 
         def residuals_of(sensors) -> np.ndarray:
@@ -554,67 +548,6 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                         maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
                         model_names=tuple(MODEL_NAMES[c] for c in family.imm_models),
                         calibration=(cal,) if cal is not None else ())
-
-
-def _pass_rows(full: PassRows, grid_t: np.ndarray, noise_passes: int) -> PassRows:
-    """The rows of the passes before the last: every row, or on a long span an evenly
-    thinned subset (``fusion.thinning``) on the same output grid."""
-    stride = thinning_stride(len(full.batch), noise_passes)
-    if stride == 1:
-        return full
-    kept = thinned_rows(full.batch, stride)
-    part = full.batch.rows(kept)
-    log.info("long span: %d rows; passes 1 to %d on %d of them (each series thinned evenly, "
-             "by %d at most), the final pass on every row", len(full.batch), noise_passes,
-             len(kept), stride)
-    return PassRows(part, *_epochs(part.t, grid_t), kept)
-
-
-def _to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: np.ndarray,
-                  noise: dict[tuple[int, int], float], cal: Calibration | None,
-                  settings: EstimatorSettings, gate: np.ndarray, start, rho: float | None):
-    """Carry the last thinned pass ``out`` (on ``thin``'s rows, with process noise
-    ``q_used``) to every row of ``full`` before the final pass (``fusion.thinning``).
-
-    The full rows get the refraction and the calibration found so far, their residuals at
-    the carried track, and the gate's verdict (the thinned filter's for its own rows; for
-    the others the one-component gate with the noise estimated so far, ``noise``).
-
-    Returns: the carried track (``thinning.Expanded``), the corrected full batch, the pass
-    result on every row, the pass before on every row (a call), its process noise and the
-    final pass's (from the thinned pass's EM statistic; None without one), both (E,).
-    """
-    p = settings.processing
-    expanded = expand(thin, out.xs, out.Ps, full.epoch_t)
-    b = full.batch
-    if settings.refraction is not None:
-        b = refraction_corrections(b, expanded.xs, full.meas_epoch, settings.refraction)
-    if cal is not None and cal.applied.any():
-        latency = any(t.slot == LATENCY_SLOT and a != 0.0
-                      for t, a in zip(cal.terms, cal.applied))
-        rate = row_rates(b, expanded.xs, full.epoch_t, full.meas_epoch, full.grid,
-                         settings.calibration, cal.terms) if latency else None
-        b = apply_increments(b, cal.terms, cal.applied,
-                             rate if rate is not None else np.zeros((len(b), 4)))
-    res, hph = expanded.residuals(b, full.meas_epoch)
-    sigma = b.sigma.copy()
-    for (sensor, c), value in noise.items():
-        sigma[b.sensor == sensor, c] = value
-    used = gate_use(res, hph, sigma, float(gate[1]))
-    used[thin.kept] = out.used
-    hph[independent_rows(len(b), thin.kept)] *= -1.0   # not in the thinned smoother's data
-    q_full = steps_at(thin.epoch_t, q_used, full.epoch_t)
-    q_next = None
-    if p.process_noise is None and out.em is not None:
-        q_next = steps_at(thin.epoch_t, local_process_noise(
-            thin.epoch_t, out.em, window=settings.q_window, ceiling=max(settings.q_grid)),
-            full.epoch_t)
-    n = len(b)
-    result = PassResult(expanded.xs, expanded.Ps, None, np.full(n, np.nan),
-                        np.zeros(n, dtype=np.int64), used, res, hph, out.resets, b)
-    redo = partial(run_pass, b.with_sigma(sigma), full.epoch_t, full.meas_epoch, *start,
-                   q_full, gate, settings, expanded.xs, rho or 0.0)
-    return expanded, b, result, redo, q_full, q_next
 
 
 def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,

@@ -29,12 +29,20 @@ final pass then run on every row, so the calibration's covariance is the full da
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from rangeproc.estimation.registration import LATENCY_SLOT
 from rangeproc.estimation.residuals import smoothed_residuals
+from rangeproc.estimation.tuning import local_process_noise
 from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.fusion.passes import PassResult
+from rangeproc.fusion.refraction_rows import refraction_corrections
+from rangeproc.fusion.registration import Calibration, apply_increments, row_rates
+
+if TYPE_CHECKING:                       # the estimator's settings (its module imports this one)
+    from rangeproc.fusion.centralised import EstimatorSettings
 
 #: Spans with at most this many rows use every row in every pass.
 THIN_ABOVE_ROWS = 400_000
@@ -52,7 +60,7 @@ class PassRows(NamedTuple):
     """The rows a pass runs on and their epochs.
 
     batch: the rows; epoch_t (E,) s, meas_epoch (N,), grid (E,) bool as
-    ``fusion.centralised._epochs`` builds them; kept: (N,) indices of these rows in the
+    :meth:`of` builds them; kept: (N,) indices of these rows in the
     span's full batch, None when they are every row.
     """
 
@@ -61,6 +69,17 @@ class PassRows(NamedTuple):
     meas_epoch: np.ndarray
     grid: np.ndarray
     kept: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, batch: MeasurementBatch, grid_t: np.ndarray,
+           kept: np.ndarray | None = None) -> PassRows:
+        """The rows of ``batch`` with their epochs: the union of row times and output-grid
+        times ``grid_t`` (s), so the smoother estimates the state exactly at the grid."""
+        epoch_t = np.union1d(batch.t, grid_t)
+        grid = np.zeros(len(epoch_t), dtype=bool)
+        grid[np.searchsorted(epoch_t, grid_t)] = True
+        return cls(batch, epoch_t, np.searchsorted(epoch_t, batch.t).astype(np.int64), grid,
+                   kept)
 
 
 def thinning_stride(n_rows: int, noise_passes: int) -> int:
@@ -160,3 +179,58 @@ def independent_rows(n_rows: int, kept: np.ndarray) -> np.ndarray:
     out[kept] = False
     return out
 
+
+def thinned_pass_rows(full: PassRows, grid_t: np.ndarray, noise_passes: int) -> PassRows:
+    """The rows of the passes before the last: every row, or on a long span an evenly
+    thinned subset (``fusion.thinning``) on the same output grid."""
+    stride = thinning_stride(len(full.batch), noise_passes)
+    if stride == 1:
+        return full
+    kept = thinned_rows(full.batch, stride)
+    return PassRows.of(full.batch.rows(kept), grid_t, kept)
+
+
+def carry_to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: np.ndarray,
+                  noise: dict[tuple[int, int], float], cal: Calibration | None,
+                  settings: EstimatorSettings, gate: np.ndarray):
+    """Carry the last thinned pass ``out`` (on ``thin``'s rows, with process noise
+    ``q_used``) to every row of ``full`` before the final pass (``fusion.thinning``).
+
+    The full rows get the refraction and the calibration found so far, their residuals at
+    the carried track, and the gate's verdict (the thinned filter's for its own rows; for
+    the others the one-component gate with the noise estimated so far, ``noise``).
+
+    Returns: the carried track (:class:`Expanded`), the corrected full batch, the pass
+    result on every row, the full batch with the sigmas of the pass before (to redo that
+    pass on every row), its process noise and the final pass's (from the thinned pass's EM
+    statistic; None without one), both (E,).
+    """
+    p = settings.processing
+    expanded = expand(thin, out.xs, out.Ps, full.epoch_t)
+    b = full.batch
+    if settings.refraction is not None:
+        b = refraction_corrections(b, expanded.xs, full.meas_epoch, settings.refraction)
+    if cal is not None and cal.applied.any():
+        latency = any(t.slot == LATENCY_SLOT and a != 0.0
+                      for t, a in zip(cal.terms, cal.applied))
+        rate = row_rates(b, expanded.xs, full.epoch_t, full.meas_epoch, full.grid,
+                         settings.calibration, cal.terms) if latency else None
+        b = apply_increments(b, cal.terms, cal.applied,
+                             rate if rate is not None else np.zeros((len(b), 4)))
+    res, hph = expanded.residuals(b, full.meas_epoch)
+    sigma = b.sigma.copy()
+    for (sensor, c), value in noise.items():
+        sigma[b.sensor == sensor, c] = value
+    used = gate_use(res, hph, sigma, float(gate[1]))
+    used[thin.kept] = out.used
+    hph[independent_rows(len(b), thin.kept)] *= -1.0   # not in the thinned smoother's data
+    q_full = steps_at(thin.epoch_t, q_used, full.epoch_t)
+    q_next = None
+    if p.process_noise is None and out.em is not None:
+        q_next = steps_at(thin.epoch_t, local_process_noise(
+            thin.epoch_t, out.em, window=settings.q_window, ceiling=max(settings.q_grid)),
+            full.epoch_t)
+    n = len(b)
+    result = PassResult(expanded.xs, expanded.Ps, None, np.full(n, np.nan),
+                        np.zeros(n, dtype=np.int64), used, res, hph, out.resets, b)
+    return expanded, b, result, b.with_sigma(sigma), q_full, q_next
