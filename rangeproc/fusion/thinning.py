@@ -29,7 +29,7 @@ final pass then run on every row, so the calibration's covariance is the full da
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -40,9 +40,6 @@ from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.passes import PassResult
 from rangeproc.fusion.refraction_rows import refraction_corrections
 from rangeproc.fusion.registration import Calibration, apply_increments, row_rates
-
-if TYPE_CHECKING:                       # the estimator's settings (its module imports this one)
-    from rangeproc.fusion.centralised import EstimatorSettings
 
 #: Spans with at most this many rows use every row in every pass.
 THIN_ABOVE_ROWS = 400_000
@@ -192,13 +189,16 @@ def thinned_pass_rows(full: PassRows, grid_t: np.ndarray, noise_passes: int) -> 
 
 def carry_to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: np.ndarray,
                   noise: dict[tuple[int, int], float], cal: Calibration | None,
-                  settings: EstimatorSettings, gate: np.ndarray):
+                  settings, gate: np.ndarray):
     """Carry the last thinned pass ``out`` (on ``thin``'s rows, with process noise
     ``q_used``) to every row of ``full`` before the final pass (``fusion.thinning``).
 
     The full rows get the refraction and the calibration found so far, their residuals at
     the carried track, and the gate's verdict (the thinned filter's for its own rows; for
     the others the one-component gate with the noise estimated so far, ``noise``).
+    ``settings``: the estimator's (``fusion.centralised.EstimatorSettings``: its
+    ``processing``, ``refraction``, ``calibration``, ``q_window`` and ``q_grid``); ``gate``
+    (7,) the chi-square thresholds.
 
     Returns: the carried track (:class:`Expanded`), the corrected full batch, the pass
     result on every row, the full batch with the sigmas of the pass before (to redo that
