@@ -253,19 +253,27 @@ def run_cmd(config: Path, quiet: bool) -> None:
 @click.option("--n-objects", type=int, default=None,
               help="With --objects: how many objects (default: drawn within the kind's range; "
                    "scale: 10).")
+@click.option("--trajectory", type=click.Path(path_type=Path, exists=True, dir_okay=False),
+              default=None, metavar="FILE",
+              help="Fly a recorded track (CSV or Parquet in the truth format of `rangeproc "
+                   "evaluate`: time; e, n, u or lat, lon, height; optional ve, vn, vu) instead "
+                   "of the seed's drawn trajectory: smoothed, its centre placed 25 km from the "
+                   "range origin, at most --duration seconds of it. Not with --objects.")
 @quiet_option
 @debug_option
 @library_errors
 def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_scale: float,
-                 faults: str, objects: str | None, n_objects: int | None, quiet: bool) -> None:
+                 faults: str, objects: str | None, n_objects: int | None,
+                 trajectory: Path | None, quiet: bool) -> None:
     """Write a simulated scenario with truth into OUT_DIR.
 
     A maneuvering aircraft seen by a fixed radar, a theodolite, a ship-borne radar with INS,
     target GPS and MISTRAM stations, with realistic noise, dropouts, bursts and wild points.
     Writes the sensor files, scenario.toml (a contract-only config) and truth.csv (and, with
-    --faults, the injected systematic errors as truth_calibration.json). With --objects, a
-    multi-object scenario of that kind (tracks that jump, surveillance plots with clutter,
-    in azimuth order or not).
+    --faults, the injected systematic errors as truth_calibration.json). With --trajectory,
+    the aircraft flies a recorded track (an ADS-B or GPS log, a planned trajectory). With
+    --objects, a multi-object scenario of that kind (tracks that jump, surveillance plots with
+    clutter, in azimuth order or not).
     """
     from rangeproc.simulate import resolve_faults, simulate_multi, simulate_scenario
 
@@ -273,10 +281,12 @@ def simulate_cmd(out_dir: Path, seed: int, duration: float, sensors: str, rate_s
         if n_objects is not None:
             raise ConfigError("simulate: --n-objects needs --objects KIND")
         path = simulate_scenario(out_dir, seed=seed, duration=duration, sensors=sensors,
-                                 rate_scale=rate_scale, faults=resolve_faults(faults))
+                                 rate_scale=rate_scale, faults=resolve_faults(faults),
+                                 trajectory=trajectory)
     else:
         extra = [name for name, given in (("--sensors", sensors != "all"),
                                           ("--rate-scale", rate_scale != 1.0),
+                                          ("--trajectory", trajectory is not None),
                                           ("--faults", faults.strip().lower() != "none"))
                  if given]
         if extra:

@@ -35,6 +35,7 @@ import pymap3d as pm
 from rangeproc.errors import ConfigError
 from rangeproc.simulate import sensors as sn
 from rangeproc.simulate.files import atomic_write_table, atomic_write_text
+from rangeproc.simulate.recorded import read_recording, recorded_trajectory
 from rangeproc.simulate.trajectory import Trajectory, plan_trajectory
 
 log = logging.getLogger(__name__)
@@ -134,16 +135,26 @@ def _polar(rng: np.random.Generator, lo: float, hi: float) -> tuple[float, float
     return r * math.sin(a), r * math.cos(a)
 
 
-def draw_scenario(seed: int, duration: float, rate_scale: float = 1.0) -> Scenario:
+def draw_scenario(seed: int, duration: float, rate_scale: float = 1.0,
+                  recording: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None
+                  ) -> Scenario:
     """Draw the geometry, trajectory and error parameters of scenario ``seed``.
 
-    rate_scale multiplies every sensor's sample rate; it draws nothing (same scenario)."""
+    rate_scale multiplies every sensor's sample rate; it draws nothing (same scenario).
+    recording: (times (M,) s, positions (M, 3) local ENU m, velocities (M, 3) m/s or None) of a
+    recorded track to fly instead of a drawn trajectory (``simulate.recorded``); the flight
+    then lasts at most its span."""
     g, traj_rng = np.random.default_rng(seed).spawn(2)
     origin = sn.Geo(round(float(_sign(g) * g.uniform(20, 60)), 6),
                     round(float(g.uniform(-180, 180)), 6), round(float(g.uniform(0, 300)), 1))
     iso = seed % 2 == 0
     t0 = round(float((_ISO_EPOCH if iso else 345600.0) + g.uniform(0, 7200)), 2)
-    traj = plan_trajectory(traj_rng, duration + 0.5, t0)
+    if recording is None:
+        traj = plan_trajectory(traj_rng, duration + 0.5, t0)
+    else:
+        traj = recorded_trajectory(*recording, t0, duration + 0.5,
+                                   float(traj_rng.uniform(0.0, 2.0 * math.pi)))
+        duration = min(duration, traj.duration - 0.5)
     h0 = origin.height
     r1_site = _geo_at(origin, *_polar(g, 1.5e3, 6e3), h0 + g.uniform(-30, 300))
     r1_sigma = {"range": _r(g.uniform(5, 10)), "azimuth": _r(g.uniform(0.2, 1) * _MRAD, 6),
@@ -488,7 +499,8 @@ def resolve_faults(spec: str) -> dict[str, dict[str, float]]:
 
 def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
                       sensors: str = "all", noise: bool = True, rate_scale: float = 1.0,
-                      faults: Mapping[str, Mapping[str, float]] | None = None) -> Path:
+                      faults: Mapping[str, Mapping[str, float]] | None = None,
+                      trajectory: Path | None = None) -> Path:
     """Write sensor files, ``scenario.toml`` and ``truth.csv`` into out_dir; return the config.
 
     duration: seconds of flight (>= 20). sensors: 'all' or e.g. 'R1,S1,SHIP_INS,G1'.
@@ -500,6 +512,8 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     contract's names and signs (section 4; see :data:`FAULTS`), e.g. :data:`REGISTRATION_FAULTS`;
     applied with or without noise and written to ``truth_calibration.json`` (only the
     sensors written). None or {} writes exactly the fault-free files (and no such file).
+    trajectory: a recorded track (``simulate.recorded``, the truth format of ``rangeproc
+    evaluate``) to fly instead of the seed's drawn one, for at most ``duration`` seconds.
     """
     if not duration >= 20.0 or not math.isfinite(duration):
         raise ConfigError(f"simulate: duration={duration!r}: must be a number >= 20 s")
@@ -510,7 +524,8 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     checked = validate_faults(faults)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    sc = draw_scenario(int(seed), float(duration), float(rate_scale))
+    recording = read_recording(trajectory) if trajectory is not None else None
+    sc = draw_scenario(int(seed), float(duration), float(rate_scale), recording)
     for sid in ids:
         cols = build_columns(sc, sid, noise=noise, faults=checked.get(sid))
         atomic_write_table(out_dir / FILES[sid], cols)
