@@ -11,7 +11,7 @@ SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration multi autoferry sample-data lint clean
+.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration calibration-mc multi autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -66,6 +66,11 @@ accuracy: $(STAMP)
 ## -> docs/measurements/registration.json.
 registration: $(STAMP)
 	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS) --out docs/measurements/registration.json
+
+## calibration-mc: the trajectory's sigma with drawn sensor biases, seeded Monte Carlo on
+## simulated and recorded (A310 zero-g, ADS-B) flights -> docs/measurements/calibration_mc.json
+calibration-mc: $(STAMP)
+	$(BIN)/python bench/calibration_mc.py --out docs/measurements/calibration_mc.json
 
 ## multi: the several-objects sweep (simulator kinds x MULTI_SEEDS, against the true assignment)
 ## -> docs/measurements/multi.json.

@@ -152,7 +152,9 @@ def test_a_thinned_run_says_so_and_matches_the_whole_run_within_five_percent(thi
     whole, thin = metrics["whole"]["targets"]["T1"], metrics["thinned"]["targets"]["T1"]
     for key in ("pos_rmse", "vel_rmse"):               # no worse than 5 % (nor suspiciously
         assert 0.8 * whole[key] <= thin[key] <= 1.05 * whole[key], key   # better)
-    assert thin["nees_pos_mean"] == pytest.approx(whole["nees_pos_mean"], rel=0.15)
+    # both conservative (about 0.4): the calibration terms left uncorrected enter the sigma
+    # with the square of their estimates (estimation.consider), which differ by their noise
+    assert thin["nees_pos_mean"] == pytest.approx(whole["nees_pos_mean"], rel=0.2)
     assert min(thin["inside_3sigma_enu"]) >= 0.95
 
 
