@@ -224,6 +224,33 @@ def run_cmd(config: Path, quiet: bool) -> None:
             click.echo(line)
 
 
+@main.command("plan")
+@click.argument("config", type=click.Path(path_type=Path))
+@click.argument("trajectory", type=click.Path(path_type=Path))
+@click.option("--seed", type=int, default=1, show_default=True,
+              help="Seed of the noise on the planned rows (the prediction hardly depends on it).")
+@quiet_option
+@debug_option
+@library_errors
+def plan_cmd(config: Path, trajectory: Path, seed: int, quiet: bool) -> None:
+    """Predict the accuracy a planned flight can achieve with CONFIG's sensors.
+
+    TRAJECTORY is the planned track (CSV or Parquet in the truth format of `rangeproc
+    evaluate`: time; e, n, u or lat, lon, height; optional ve, vn, vu). Every sensor of
+    CONFIG measures it with its site or platform (from its INS file), its sigmas and its rate
+    (the file's, `rate_hz`, or the kind's default); the run's own smoother and registration
+    estimate it. Writes plan.parquet (predicted 1-sigma position and velocity per output
+    epoch, the sensors that carry it, weak geometry), plan.json (the calibration terms the
+    flight makes observable) and plan.png into the config's [output] dir.
+    """
+    from rangeproc.planning.plan import format_plan, run_plan
+
+    out = run_plan(config, trajectory, seed=seed)
+    if not quiet:
+        for line in format_plan(out):
+            click.echo(line)
+
+
 @main.command("simulate")
 @click.argument("out_dir", type=click.Path(path_type=Path))
 @click.option("--seed", type=int, default=1, show_default=True, help="Random seed.")

@@ -321,7 +321,7 @@ class _Validator(ValueChecks):
                               time_offset=time_offset, sigma=sigma, target=target,
                               stations=stations, allow_disjoint_time=allow_disjoint,
                               calibrate=tuple(n for n in names if n in calibrate),
-                              calibration=known)
+                              calibration=known, rate_hz=value("rate_hz"))
 
     def parse_instant(self, x: object, key: str) -> float:
         """``time_offset``: seconds, or a calendar instant (``ValueChecks.instant``), within

@@ -214,6 +214,11 @@ class SensorSettings:
         "before anything else: range bias (m) and angle biases (angle_unit) of the kind's "
         "terms other than latency, measured minus true (a known latency is time_offset).",
         parse="known_calibration", default_doc="none")
+    rate_hz: float | None = key(
+        None, doc="The sensor's sample rate as rangeproc plan assumes it (MISTRAM: per "
+        "station); a run takes the rates from the file.", unit="Hz", positive=True,
+        bounds=(1e-3, 1e4), default_doc="the file's rate, else the kind's (radar and "
+        "theodolite 20, gps and mistram 10)")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

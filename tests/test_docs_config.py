@@ -221,7 +221,7 @@ def test_a_key_declared_without_a_meaning_is_reported() -> None:
     (BASE.replace('id = "R1"', 'id = "R1"\nazimth = 1'),
      "sample.toml: sensors[0].azimth: unknown key (expected one of: id, kind, file, site, "
      "platform, lever_arm, angle_unit, time_offset, sigma, target, stations, "
-     "allow_disjoint_time, calibrate, calibration)"),
+     "allow_disjoint_time, calibrate, calibration, rate_hz)"),
     (BASE.replace('dir = "out"', 'dir = "out"\nrate = 10'),
      "sample.toml: output.rate: unknown key (expected one of: dir, rate_hz, export, epoch)"),
     (BASE.replace("height = 100.0 }", "height = 100.0, speed = 3 }"),

@@ -20,7 +20,7 @@ LAYERS = {
     4: {"fusion"},
     5: {"tracking"},
     6: {"evaluate", "interchange", "report", "simulate"},
-    7: {"stages"},
+    7: {"stages", "planning"},
     8: {"pipeline"},
     9: {"campaign"},
     10: {"cli"},

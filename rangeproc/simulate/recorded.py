@@ -115,21 +115,25 @@ def read_recording(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | Non
     return table.time, pos, vel
 
 
-def _axis_spline(tau: np.ndarray, p: np.ndarray, v: np.ndarray | None
+def _axis_spline(tau: np.ndarray, p: np.ndarray, v: np.ndarray | None, smooth: bool
                  ) -> tuple[UnivariateSpline, float, float]:
-    """Quintic spline of one position axis and the line ``a + b tau`` to add to it: smoothed
-    positions (no line), or, with velocities, the antiderivative of their quartic smoothing
-    spline and the line (least squares) that puts it onto the positions: the positions fix
-    where the track is and its mean velocity, the velocities its shape."""
+    """Quintic spline of one position axis and the line ``a + b tau`` to add to it: the
+    positions' (smoothing or interpolating) spline and no line, or, with velocities, the
+    antiderivative of their quartic spline and the line (least squares) that puts it onto the
+    positions: the positions fix where the track is and its mean velocity, the velocities its
+    shape."""
+    m = len(tau)
     if v is None:
-        return UnivariateSpline(tau, p, k=5, s=len(tau) * RECORD_SIGMA ** 2), 0.0, 0.0
-    ps = UnivariateSpline(tau, v, k=4, s=len(tau) * RECORD_SIGMA_V ** 2).antiderivative()
+        return UnivariateSpline(tau, p, k=5, s=m * RECORD_SIGMA ** 2 if smooth else 0.0), 0.0, 0.0
+    ps = UnivariateSpline(tau, v, k=4, s=m * RECORD_SIGMA_V ** 2 if smooth else 0.0
+                          ).antiderivative()
     b, a = np.polyfit(tau, p - ps(tau), 1)
     return ps, float(a), float(b)
 
 
 def recorded_trajectory(t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None, t0: float,
-                        duration: float, bearing: float) -> RecordedTrajectory:
+                        duration: float, bearing: float | None, smooth: bool = True
+                        ) -> RecordedTrajectory:
     """Smooth, re-time and re-place a recorded track (module docstring).
 
     t: (M,) s ascending; pos: (M, 3) local ENU m; vel: (M, 3) m/s or None; t0: the scenario's
@@ -143,11 +147,15 @@ def recorded_trajectory(t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None, 
     if len(tau) < MIN_SAMPLES:
         raise DataError(f"recorded trajectory: {len(tau)} samples in the first {duration:g} s; "
                         f"need at least {MIN_SAMPLES}")
-    fits = [_axis_spline(tau, p[:, i], None if v is None else v[:, i]) for i in range(3)]
+    fits = [_axis_spline(tau, p[:, i], None if v is None else v[:, i], smooth)
+            for i in range(3)]
     splines = tuple(f[0] for f in fits)
     own = np.array([f[1] for f in fits])               # the lines added to the splines
     drift = np.array([f[2] for f in fits])
-    centre = np.array([s(tau).mean() for s in splines[:2]]) + own[:2] + drift[:2] * tau.mean()
-    target = PLACE_DISTANCE * np.array([math.sin(bearing), math.cos(bearing)])
-    offset = own + np.array([*(target - centre), 0.0])
+    offset = own.copy()
+    if bearing is not None:
+        centre = (np.array([s(tau).mean() for s in splines[:2]]) + own[:2]
+                  + drift[:2] * tau.mean())
+        target = PLACE_DISTANCE * np.array([math.sin(bearing), math.cos(bearing)])
+        offset[:2] += target - centre
     return RecordedTrajectory(float(t0), float(tau[-1]), splines, offset, drift)
