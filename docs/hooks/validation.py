@@ -1,9 +1,10 @@
 """The Validation and performance pages, generated from the measurement files at build time.
 
-``make accuracy``, ``make registration``, ``make calibration-mc``, ``make multi``, ``make
-autoferry`` and ``make bench`` write ``docs/measurements/<name>.json`` (each with a ``meta``
-block: machine, UTC date, git commit, command; ``bench/meta.py``). This module renders each
-file into a Markdown page of tables, so that no number on those pages is copied by hand:
+``make accuracy``, ``make registration``, ``make calibration-mc``, ``make plan-check``,
+``make multi``, ``make autoferry`` and ``make bench`` write
+``docs/measurements/<name>.json`` (each with a ``meta`` block: machine, UTC date, git commit,
+command; ``bench/meta.py``). This module renders each file into a Markdown page of tables, so
+that no number on those pages is copied by hand:
 
 ==========================================  ====================  =========================
 page                                        measurements          made by
@@ -12,6 +13,7 @@ validation/index.md                         all of them           (overview)
 validation/accuracy.md                      accuracy.json         ``make accuracy``
 validation/registration.md                  registration.json     ``make registration``
 validation/calibration-uncertainty.md       calibration_mc.json   ``make calibration-mc``
+validation/planning.md                      plan_check.json       ``make plan-check``
 validation/several-objects                  multi.json            ``make multi``
 validation/real-data.md                     autoferry.json        ``make autoferry``
 validation/speed.md                         bench.json            ``make bench``
@@ -562,6 +564,33 @@ def render_calibration_mc(data: Any) -> str:
     return "\n\n".join(out)
 
 
+def render_plan_check(data: Any) -> str:
+    out = ["For each seed the simulator writes a flight, without sensor biases and with biases "
+           "drawn as on the calibration page; `rangeproc plan` predicts its sigma from the "
+           "config and the truth trajectory alone, then `rangeproc run` processes the flight. "
+           "Per axis over the seeds: RMS of the achieved RMSE over RMS of the predicted sigma "
+           "(1: the plan predicts the achieved error; one flight's RMSE is one draw of its "
+           "calibration errors, so only the ratio over seeds means much), and the median of "
+           "predicted over the run's own stated sigma. Without biases the runs' sigma is "
+           "conservative (it holds the calibration terms' uncertainty, and the truth has "
+           "none): the achieved error is below both."]
+    for name, title in (("biases", "With drawn sensor biases"), ("clean", "Without biases")):
+        block = data.get(name) if isinstance(data, dict) else None
+        if not block:
+            continue
+        summary = block.get("summary", {})
+        out.append(f"## {title}\n\n" + table(
+            ["axis", "RMS RMSE / RMS predicted σ", "median predicted / stated σ"],
+            [[ax.upper(), fmt(summary.get(ax, {}).get("rmse_over_predicted"), ".2f"),
+              fmt(summary.get(ax, {}).get("predicted_over_stated_median"), ".2f")]
+             for ax in "enu"]) + "\n\n" + table(
+            ["seed", *[f"{ax.upper()}: RMSE / predicted / stated (m)" for ax in "enu"]],
+            [[r["seed"], *[f"{fmt(r[ax]['rmse'])} / {fmt(r[ax]['predicted'])} / "
+                           f"{fmt(r[ax]['stated'])}" for ax in "enu"]]
+             for r in block.get("rows", [])]))
+    return "\n\n".join(out)
+
+
 # ----------------------------------------------------------------------------- pages
 #: page -> (title, measurement file, make target, renderer)
 PAGES: dict[str, tuple[str, str, str, Callable[[Any], str]]] = {
@@ -572,6 +601,8 @@ PAGES: dict[str, tuple[str, str, str, Callable[[Any], str]]] = {
     "validation/calibration-uncertainty.md": ("Uncertainty with estimated calibration",
                                               "calibration_mc.json", "calibration-mc",
                                               render_calibration_mc),
+    "validation/planning.md": ("Planning: predicted against achieved", "plan_check.json",
+                               "plan-check", render_plan_check),
     "validation/several-objects.md": ("Several objects", "multi.json", "multi", render_multi),
     "validation/real-data.md": ("Real data: Autoferry", "autoferry.json", "autoferry",
                                 render_autoferry),
