@@ -20,7 +20,9 @@ class TrackEstimate:
     (the target was unobserved for longer than the gap limit between them: no epochs there);
     model_prob: the IMM's smoothed probability (K,) of each model by name (empty otherwise);
     sensors: (K,) str, the ids of those sensors, comma-separated (provenance); data_gap: (K,)
-    s from the epoch to the nearest used measurement of any sensor (large inside a bridged gap).
+    s from the epoch to the nearest used measurement of any sensor (large inside a bridged gap);
+    achievable: (K, 3) m, the 1-sigma position the instruments allow along this trajectory
+    (``fusion.achievable``; NaN inside a bridged gap), None when not computed.
     """
 
     target_id: str
@@ -35,6 +37,7 @@ class TrackEstimate:
     model_prob: dict[str, np.ndarray] = field(default_factory=dict)
     sensors: np.ndarray | None = None
     data_gap: np.ndarray | None = None
+    achievable: np.ndarray | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.linalg import unpack_many
+from rangeproc.fusion.achievable import achievable_sigma
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.centralised import FusionResult
@@ -109,7 +110,8 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     between spans up to ``max_bridge`` s are filled by the least-squares fit of
     ``fusion.bridge``; epochs where the object's own rows reject the trajectory are left out
     (``fusion.support``; ``stated`` (S, 3): each sensor's stated sigmas of its first three
-    components, ``fusion.support.position_rows``)."""
+    components, ``fusion.support.position_rows``); with the achievable 1-sigma position of
+    every epoch (``fusion.achievable``)."""
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -117,9 +119,11 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
+    achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
+    achievable[~filled] = achievable_sigma(result)
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
-    t, x, P = t[keep], x[keep], P[keep]
+    t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns, names, gap = epoch_bookkeeping(t, rate_hz, result.batch.t[acc],
@@ -132,7 +136,8 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
             prob[name] = p[keep]
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
-                         spans=result.spans, model_prob=prob, sensors=names, data_gap=gap)
+                         spans=result.spans, model_prob=prob, sensors=names, data_gap=gap,
+                         achievable=achievable)
 
 
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,

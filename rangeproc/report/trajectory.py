@@ -87,6 +87,11 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
             ax_sig.plot(tg - t0, sig[:, j], ls=ls if not single else "-",
                         color=c if single else color, lw=1.1, marker=marker,
                         label=f"σ_{name}" if single else f"{tr.target_id} σ_{name}")
+        if single and tr.achievable is not None:        # what the instruments allow
+            _, ach = break_gaps(t, np.asarray(tr.achievable, dtype=float)[idx])
+            for j, (name, _, c) in enumerate(_AXIS_STYLES):
+                ax_sig.plot(tg - t0, ach[:, j], ls=(0, (1, 1.5)), color=c, lw=1.0, alpha=0.9,
+                            label=f"achievable σ_{name}")
 
     _finish_map(ax_map, tracks, sites)
     ax_up.set_ylabel(HEIGHT_LABEL)
@@ -107,6 +112,12 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
         # single target: colour = axis; several: colour = target (as above), style = axis
         handles = [Line2D([], [], color=c if single else "0.2", ls="-" if single else ls,
                           lw=1.1, label=f"σ_{name}") for name, ls, c in _AXIS_STYLES]
+
+        if single and tracks[0].achievable is not None:    # inside: the axes' own note
+            ax_sig.add_artist(ax_sig.legend(
+                handles=[Line2D([], [], color="0.2", ls=(0, (1, 1.5)), lw=1.0,
+                                label="achievable: what the instruments allow")],
+                loc="upper right", fontsize=7, frameon=False))
         ax_sig.legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3,
                       fontsize=7.5, frameon=False, borderaxespad=0.1, handlelength=2.2,
                       columnspacing=1.2)

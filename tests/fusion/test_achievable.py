@@ -1,0 +1,45 @@
+"""The achievable accuracy drawn beside the achieved (``fusion.achievable``): equal where the
+run used its rows as the instruments allow, smaller where the data were worse than the
+instruments (a GPS noise burst), and the long-span thinning equivalent to every row."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rangeproc.fusion.achievable as ach
+from rangeproc.pipeline import run
+from rangeproc.simulate import simulate_scenario
+from rangeproc.simulate.scenario import draw_scenario
+
+
+@pytest.fixture(scope="module")
+def burst_run(tmp_path_factory):
+    """A flight seen by its GPS alone, which has a noise burst (x10 for 8-12 s)."""
+    folder = tmp_path_factory.mktemp("achievable")
+    cfg = simulate_scenario(folder, seed=4, duration=60.0, sensors="G1")
+    out = run(cfg)
+    return out.tracks[0], draw_scenario(4, 60.0).g1_burst
+
+
+def test_achievable_equals_achieved_where_the_rows_were_as_stated(burst_run):
+    track, (b0, b1) = burst_run
+    achieved = np.sqrt(np.diagonal(track.P, axis1=1, axis2=2)[:, :3])
+    far = (track.time < b0 - 10.0) | (track.time > b1 + 10.0)
+    ratio = np.median(track.achievable[far] / achieved[far], axis=0)
+    assert ratio == pytest.approx(np.ones(3), abs=0.1)
+
+
+def test_achievable_is_smaller_inside_a_noise_burst(burst_run):
+    track, (b0, b1) = burst_run
+    achieved = np.sqrt(np.diagonal(track.P, axis1=1, axis2=2)[:, :3])
+    inside = (track.time > b0 + 2.0) & (track.time < b1 - 2.0)
+    assert inside.any()
+    assert np.median(achieved[inside] / track.achievable[inside]) > 1.5
+
+
+def test_a_long_span_thinned_with_scaled_sigma_gives_the_same(tmp_path, monkeypatch):
+    cfg = simulate_scenario(tmp_path, seed=2, duration=40.0, sensors="R1,G1")
+    whole = run(cfg).tracks[0].achievable
+    monkeypatch.setattr(ach, "MAX_ROWS", 600)          # about 1,000 rows: each series by 2
+    thinned = run(cfg).tracks[0].achievable
+    assert np.median(thinned / whole) == pytest.approx(1.0, abs=0.03)
