@@ -33,7 +33,7 @@ STUKF_WEAKENING = 3.0
 OPTICAL_REFRACTIVITY = 277.9
 REFRACTION_MODELS = ("none", "4/3", "exponential")
 #: The forward filters of ``processing.filter`` (``fusion.centralised.filter_family``).
-FILTERS = ("ekf", "ukf", "stukf", "sage-husa", "askf", "imm", "spline")
+FILTERS = ("auto", "ekf", "ukf", "stukf", "sage-husa", "askf", "imm", "spline")
 #: Calibration terms (``summary.json`` ``calibration.<name>``, data contract section 4), SI.
 CALIBRATION_NAMES = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch",
                      "mount_yaw")
@@ -242,7 +242,9 @@ class ProcessingSettings:
         "from the data (maximum likelihood, then local EM).", unit="m^2/s^5", positive=True,
         bounds=PROCESS_NOISE_BOUNDS)
     filter: str = key(
-        "ekf", doc='The forward filter: "ekf" (linearised, Joseph form), "ukf" (unscented), '
+        "auto", doc='The forward filter: "auto" ("ekf", or "spline" for an object measured '
+        'by range rates alone, where it comes nearer the bound; the summary says which ran), '
+        '"ekf" (linearised, Joseph form), "ukf" (unscented), '
         '"stukf" (strong-tracking UKF with multiple suboptimal fading factors, Ye and Cui), '
         '"sage-husa" (the EKF with improved Sage-Husa adaptive measurement noise, Song et '
         'al. 2011), "askf" (augmented-state filter with the maneuver-norm constraint of '

@@ -26,7 +26,7 @@ def _write(tmp_path: Path, extra: str) -> Path:
 def test_defaults_without_processing_section(tmp_path):
     cfg = load_config(_write(tmp_path, ""))
     assert cfg.processing == ProcessingSettings()
-    assert cfg.processing.filter == "ekf"
+    assert cfg.processing.filter == "auto"
 
 
 def test_ukf_selected(tmp_path):

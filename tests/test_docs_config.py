@@ -309,5 +309,5 @@ def test_the_reference_gives_units_bounds_and_allowed_values() -> None:
     processing = reference_table("[processing]")
     assert processing["max_gap"][2] == "s" and processing["max_gap"][3] == "[0.001, 1e+07]"
     assert processing["gate_probability"][3] == "[0.5, 1)"
-    assert processing["filter"][3].startswith('"ekf", "ukf", "stukf"')
+    assert processing["filter"][3].startswith('"auto", "ekf", "ukf", "stukf"')
     assert reference_table("[[sensors]]")["angle_unit"][3] == '"deg", "rad", "mil"'

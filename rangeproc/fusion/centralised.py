@@ -47,6 +47,7 @@ from rangeproc.estimation.tuning import (
     start_process_noise,
 )
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
+from rangeproc.fusion.filter_choice import choose_filter
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.lead_in import (
     forward_in_time,
@@ -54,7 +55,13 @@ from rangeproc.fusion.lead_in import (
     reversed_prior,
     time_reversed,
 )
-from rangeproc.fusion.passes import PassResult, corrected_residuals, imm_start, run_pass
+from rangeproc.fusion.passes import (
+    PassResult,
+    constraint_agrees,
+    corrected_residuals,
+    imm_start,
+    run_pass,
+)
 from rangeproc.fusion.refraction_rows import RefractionSettings, refraction_corrections
 from rangeproc.fusion.registration import (
     Calibration,
@@ -122,7 +129,8 @@ class FilterFamily:
 
 
 def filter_family(p: ProcessingSettings) -> FilterFamily:
-    """The forward filter that ``p.filter`` names (``settings.FILTERS``)."""
+    """The forward filter that ``p.filter`` names (``settings.FILTERS``; "auto" runs the
+    EKF until ``fuse_target`` has chosen, ``fusion.filter_choice``)."""
     f = p.filter
     return FilterFamily(method=UKF if f in ("ukf", "stukf") else EKF, sage_husa=f == "sage-husa",
                         askf=f == "askf", strong_tracking=f == "stukf",
@@ -195,7 +203,8 @@ class FusionResult:
     model_prob: (E, r) the IMM's smoothed model probabilities, model_names their models (None
     and () for the other filters); down_weight: (N, 6) int8, why the final pass's sigma of a
     component exceeds its sensor's global noise estimate (``fusion.noise.BURST`` / ``HUBER``;
-    None without noise adaptation).
+    None without noise adaptation); filter_used: (the forward filter run, why): the
+    configured one, or ``filter = "auto"``'s choice (``fusion.filter_choice``).
     """
 
     epoch_t: np.ndarray
@@ -219,6 +228,7 @@ class FusionResult:
     model_names: tuple[str, ...] = ()
     down_weight: np.ndarray | None = None
     calibration: tuple[Calibration, ...] = ()
+    filter_used: tuple[str, str] = ("", "")
 
 
 def gate_thresholds(probability: float) -> np.ndarray:
@@ -233,42 +243,6 @@ def output_grid(t_first: float, t_last: float, rate_hz: float) -> np.ndarray:
     k0 = int(np.ceil(t_first * rate_hz - 1e-9))
     k1 = int(np.floor(t_last * rate_hz + 1e-9))
     return np.arange(k0, k1 + 1, dtype=np.float64) / rate_hz
-
-
-def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
-    """Mean squared whitened residual over the used components (1 for a consistent fit)."""
-    w = np.where(used, res / sigma, 0.0)
-    return float((w * w).sum() / max(int(used.sum()), 1))
-
-
-def constraint_agrees(constrained, free, rho: float) -> bool:
-    """Whether the data agree with the maneuver norm ``rho`` the constrained ASKF imposed.
-
-    A wrong norm (given 3 % high, say) cannot be met by turning the maneuver and drags the
-    track off the measurements. Both refined results are compared on the components the
-    unconstrained fit used (a track dragged off rejects the rest), whitened by its sigmas
-    (each fit's own noise re-estimation would otherwise absorb the misfit). The
-    unconstrained smoother's mean squared whitened residual is ``1 - h``, ``h`` the mean
-    ``H P_s H^T / sigma^2`` (the share of the noise its state absorbs), so a true constraint,
-    which can at most take that freedom away, leaves a misfit up to the noise level
-    ``u_fit + h``; beyond it, plus three standard
-    deviations of a mean of ``n`` chi-square(1) terms, the data reject the norm.
-    """
-    used = free.used                   # the constrained fit's own gate may have given up
-    sigma = free.batch.sigma
-    n = max(int(used.sum()), 1)
-    c_fit = data_misfit(constrained.res, sigma, used)
-    u_fit = data_misfit(free.res, sigma, used)
-    absorbed = float(np.where(used, free.hph / sigma**2, 0.0).sum() / n)
-    bound = u_fit + absorbed + 3.0 * np.sqrt(2.0 / n)
-    if c_fit <= bound:
-        log.info("askf: norm %.4g m/s^2 agrees with the data (misfit %.3g, noise level %.3g)",
-                 rho, c_fit, bound)
-        return True
-    log.warning("askf: the data reject the maneuver norm %.4g m/s^2 (mean squared whitened "
-                "residual %.3g beyond the noise level %.3g): constraint dropped", rho, c_fit,
-                bound)
-    return False
 
 
 def span_slices(t: np.ndarray, max_gap: float) -> list[slice]:
@@ -293,6 +267,15 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
     Raises:
         NoPositionFix: no span can be started (the first span's reason).
     """
+    used, why = choose_filter(settings.processing.filter, batch)
+    if used != settings.processing.filter:
+        log.info("filter %s: %s", used, why)
+        settings = settings.with_processing(filter=used)
+    return replace(_fuse_spans(batch, rate_hz, settings, tick, prior), filter_used=(used, why))
+
+
+def _fuse_spans(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSettings,
+                tick: Callable[..., None], prior: Prior | None) -> FusionResult:
     slices = span_slices(batch.t, settings.processing.max_gap)
     if prior is not None:
         dist = [max(batch.t[sl.start] - prior.t, prior.t - batch.t[sl.stop - 1], 0.0)

@@ -200,3 +200,39 @@ def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
     xs, Ps, mus = imm_smooth(epoch_t, fwd.xm, fwd.Pm, fwd.mu, fwd.omega, q, codes, lam,
                              IMM_PRUNE)
     return _gates(fwd), xs, Ps, mus
+
+
+def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:
+    """Mean squared whitened residual over the used components (1 for a consistent fit)."""
+    w = np.where(used, res / sigma, 0.0)
+    return float((w * w).sum() / max(int(used.sum()), 1))
+
+
+def constraint_agrees(constrained: PassResult, free: PassResult, rho: float) -> bool:
+    """Whether the data agree with the maneuver norm ``rho`` the constrained ASKF imposed.
+
+    A wrong norm (given 3 % high, say) cannot be met by turning the maneuver and drags the
+    track off the measurements. Both refined results are compared on the components the
+    unconstrained fit used (a track dragged off rejects the rest), whitened by its sigmas
+    (each fit's own noise re-estimation would otherwise absorb the misfit). The
+    unconstrained smoother's mean squared whitened residual is ``1 - h``, ``h`` the mean
+    ``H P_s H^T / sigma^2`` (the share of the noise its state absorbs), so a true constraint,
+    which can at most take that freedom away, leaves a misfit up to the noise level
+    ``u_fit + h``; beyond it, plus three standard
+    deviations of a mean of ``n`` chi-square(1) terms, the data reject the norm.
+    """
+    used = free.used                   # the constrained fit's own gate may have given up
+    sigma = free.batch.sigma
+    n = max(int(used.sum()), 1)
+    c_fit = data_misfit(constrained.res, sigma, used)
+    u_fit = data_misfit(free.res, sigma, used)
+    absorbed = float(np.where(used, free.hph / sigma**2, 0.0).sum() / n)
+    bound = u_fit + absorbed + 3.0 * np.sqrt(2.0 / n)
+    if c_fit <= bound:
+        log.info("askf: norm %.4g m/s^2 agrees with the data (misfit %.3g, noise level %.3g)",
+                 rho, c_fit, bound)
+        return True
+    log.warning("askf: the data reject the maneuver norm %.4g m/s^2 (mean squared whitened "
+                "residual %.3g beyond the noise level %.3g): constraint dropped", rho, c_fit,
+                bound)
+    return False

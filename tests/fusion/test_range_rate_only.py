@@ -2,6 +2,7 @@
 a given ``[[targets]] initial`` state and reports honest sigmas."""
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -87,3 +88,30 @@ def test_mistram_alone_spline_filter_is_accurate_and_honest(scenario, cli, expla
     m = evaluate_run(scenario / "out_spline", scenario / "truth.csv")["targets"]["T1"]
     assert m["pos_rmse"] < 100.0 and m["vel_rmse"] < 1.0
     assert min(m["inside_3sigma_enu"]) >= 0.95, m
+
+
+def test_auto_runs_the_spline_fit_on_range_rates_alone_and_says_so(scenario, cli, explain
+                                                                    ) -> None:
+    """The default filter ("auto") chooses the spline fit for MISTRAM alone, and the EKF
+    when position-bearing rows are there; the summary says which and why."""
+    config = mistram_only_config(scenario, initial=True)
+    res = cli(["run", "--quiet", config])
+    assert res.exit_code == 0, explain(res)
+    summary = json.loads((scenario / "out" / "summary.json").read_text())
+    chosen = summary["targets"]["T1"]["filter"]
+    assert (chosen["configured"], chosen["used"]) == ("auto", "spline")
+    assert "range rates alone" in chosen["why"]
+    res = cli(["run", "--quiet", scenario / "scenario.toml"])
+    assert res.exit_code == 0, explain(res)
+    summary = json.loads((scenario / "out" / "summary.json").read_text())
+    assert summary["targets"]["T1"]["filter"]["used"] == "ekf"
+
+
+def test_an_explicit_filter_is_kept_on_range_rates_alone(scenario, cli, explain) -> None:
+    config = mistram_only_config(scenario, initial=True)
+    config.write_text(config.read_text() + '\n[processing]\nfilter = "ekf"\n')
+    res = cli(["run", "--quiet", config])
+    assert res.exit_code == 0, explain(res)
+    chosen = json.loads((scenario / "out" / "summary.json").read_text())["targets"]["T1"][
+        "filter"]
+    assert chosen == {"configured": "ekf", "used": "ekf", "why": "configured"}
