@@ -11,7 +11,7 @@ SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration calibration-mc plan-check multi autoferry sample-data lint clean
+.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration calibration-mc plan-check range-rate multi autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -66,6 +66,11 @@ accuracy: $(STAMP)
 ## -> docs/measurements/registration.json.
 registration: $(STAMP)
 	$(BIN)/python bench/registration.py --seeds $(REG_SEEDS) --out docs/measurements/registration.json
+
+## range-rate: MISTRAM alone from a given state, default config against smoothers told the
+## true noise and wild points -> docs/measurements/range_rate.json
+range-rate: $(STAMP)
+	$(BIN)/python bench/range_rate.py --out docs/measurements/range_rate.json
 
 ## plan-check: rangeproc plan's predicted sigma against what runs of the same flights
 ## achieve -> docs/measurements/plan_check.json, bench/plan_check.png

@@ -1,7 +1,7 @@
 """The Validation and performance pages, generated from the measurement files at build time.
 
 ``make accuracy``, ``make registration``, ``make calibration-mc``, ``make plan-check``,
-``make multi``, ``make autoferry`` and ``make bench`` write
+``make range-rate``, ``make multi``, ``make autoferry`` and ``make bench`` write
 ``docs/measurements/<name>.json`` (each with a ``meta`` block: machine, UTC date, git commit,
 command; ``bench/meta.py``). This module renders each file into a Markdown page of tables, so
 that no number on those pages is copied by hand:
@@ -14,6 +14,7 @@ validation/accuracy.md                      accuracy.json         ``make accurac
 validation/registration.md                  registration.json     ``make registration``
 validation/calibration-uncertainty.md       calibration_mc.json   ``make calibration-mc``
 validation/planning.md                      plan_check.json       ``make plan-check``
+validation/range-rate.md                    range_rate.json       ``make range-rate``
 validation/several-objects                  multi.json            ``make multi``
 validation/real-data.md                     autoferry.json        ``make autoferry``
 validation/speed.md                         bench.json            ``make bench``
@@ -591,6 +592,24 @@ def render_plan_check(data: Any) -> str:
     return "\n\n".join(out)
 
 
+def render_range_rate(data: Any) -> str:
+    rows = rows_of(data)
+    out = ["Each seed's flight seen by its MISTRAM stations alone, started from a given state "
+           "(the truth perturbed by 10 m and 5 m/s), with the simulator's wild points. The "
+           "bound: the better of two smoothers told the truth (the wild rows removed, the "
+           "true noise stated, no noise adaptation), the EKF smoother and the spline fit. "
+           "`default` is the config without a `[processing]` section (`filter = \"auto\"`); "
+           "`ekf` forces the EKF. Position RMSE in m, its ratio to the bound, and the share of "
+           "epochs inside 3 sigma (worst axis)."]
+    names = ("default", "ekf", "told_ekf", "told_spline")
+    out.append(table(
+        ["seed", "bound m", *[f"{n}: RMSE (× bound) / in 3σ" for n in names]],
+        [[r["seed"], fmt(r["bound_pos_rmse"], ".2f"),
+          *[f"{fmt(r['runs'][n]['pos_rmse'], '.2f')} ({fmt(r['runs'][n]['over_bound'], '.2f')}"
+            f"×) / {fmt(r['runs'][n]['in3'])}" for n in names]] for r in rows]))
+    return "\n\n".join(out)
+
+
 # ----------------------------------------------------------------------------- pages
 #: page -> (title, measurement file, make target, renderer)
 PAGES: dict[str, tuple[str, str, str, Callable[[Any], str]]] = {
@@ -603,6 +622,8 @@ PAGES: dict[str, tuple[str, str, str, Callable[[Any], str]]] = {
                                               render_calibration_mc),
     "validation/planning.md": ("Planning: predicted against achieved", "plan_check.json",
                                "plan-check", render_plan_check),
+    "validation/range-rate.md": ("Range rates alone", "range_rate.json", "range-rate",
+                                 render_range_rate),
     "validation/several-objects.md": ("Several objects", "multi.json", "multi", render_multi),
     "validation/real-data.md": ("Real data: Autoferry", "autoferry.json", "autoferry",
                                 render_autoferry),
