@@ -35,7 +35,7 @@ import pandas as pd
 
 from rangeproc.config import Config, load_config
 from rangeproc.errors import DataError
-from rangeproc.evaluate.truth import geodetic_to_range, read_truth
+from rangeproc.evaluate.truth import geodetic_to_range
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.calibration_summary import calibration_summary
@@ -44,7 +44,7 @@ from rangeproc.io.writers import write_json, write_parquet
 from rangeproc.models.measurement import SPHERICAL
 from rangeproc.planning.figure import plan_figure
 from rangeproc.planning.rows import SensorPlan, planned_rows
-from rangeproc.simulate.recorded import MIN_SAMPLES, recorded_trajectory
+from rangeproc.simulate.recorded import read_track, recorded_trajectory
 from rangeproc.stages.fuse import calibration_specs, estimator_settings, target_prior
 
 log = logging.getLogger(__name__)
@@ -70,15 +70,8 @@ class PlanOutput:
 def planned_track(path: Path, cfg: Config) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Times (M,) s, range ENU positions (M, 3) m and velocities (M, 3) m/s or None of a
     planned trajectory (the truth format of ``rangeproc evaluate``; geodetic with the
-    config's origin). One object; at least :data:`MIN_SAMPLES` rows."""
-    table = read_truth(Path(path))
-    name = Path(path).name
-    if table.target_id is not None and len(set(table.target_id)) > 1:
-        raise DataError(f"{name}: target_id: plan one object at a time "
-                        f"({len(set(table.target_id))} found)")
-    if len(table.time) < MIN_SAMPLES:
-        raise DataError(f"{name}: {len(table.time)} rows; a planned trajectory needs at "
-                        f"least {MIN_SAMPLES}")
+    config's origin). One object; at least ``simulate.recorded.MIN_SAMPLES`` rows."""
+    table = read_track(Path(path), "a planned trajectory")
     if table.form == "geodetic":
         pos, vel = geodetic_to_range(cfg.origin, table.position, table.velocity)
         return table.time, pos, vel

@@ -34,7 +34,7 @@ import pymap3d as pm
 from scipy.interpolate import UnivariateSpline
 
 from rangeproc.errors import DataError
-from rangeproc.evaluate.truth import read_truth
+from rangeproc.evaluate.truth import TruthTable, read_truth
 
 #: Noise (1-sigma, m) the smoothing spline assumes in the recorded positions (ADS-B reports
 #: positions to ~5 m and barometric altitude in 25 ft steps, ~2 m rms).
@@ -92,18 +92,25 @@ class RecordedTrajectory:
         return self.state(self.node_time)[2]
 
 
+def read_track(path: Path, what: str) -> TruthTable:
+    """A track file in the truth format of ``rangeproc evaluate``: one object, at least
+    :data:`MIN_SAMPLES` rows (DataError naming the file otherwise; ``what`` it is for)."""
+    table = read_truth(Path(path))
+    name = Path(path).name
+    if table.target_id is not None and len(set(table.target_id)) > 1:
+        raise DataError(f"{name}: target_id: {what} is one object "
+                        f"({len(set(table.target_id))} found)")
+    if len(table.time) < MIN_SAMPLES:
+        raise DataError(f"{name}: {len(table.time)} rows; {what} needs at least {MIN_SAMPLES}")
+    return table
+
+
 def read_recording(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Times (M,) s, positions (M, 3) and velocities (M, 3) or None, in a local ENU frame
     (m, m/s) of a recorded track: an ENU file as written, a geodetic one about its first
     point (velocities, local ENU at each point, rotated into that frame). DataError for several
     objects or too few samples."""
-    table = read_truth(Path(path))
-    if table.target_id is not None and len(set(table.target_id)) > 1:
-        raise DataError(f"{Path(path).name}: target_id: a recorded trajectory is one object "
-                        f"({len(set(table.target_id))} found)")
-    if len(table.time) < MIN_SAMPLES:
-        raise DataError(f"{Path(path).name}: {len(table.time)} rows; a recorded trajectory "
-                        f"needs at least {MIN_SAMPLES}")
+    table = read_track(Path(path), "a recorded trajectory")
     pos, vel = table.position, table.velocity
     if table.form == "geodetic":
         lat0, lon0 = pos[0, 0], pos[0, 1]
