@@ -104,3 +104,29 @@ def test_the_command_prints_the_plan(tmp_path):
     res = invoke(["plan", cfg, tmp_path / "truth.csv"])
     assert res.exit_code == 0, describe(res)
     assert "1-sigma median" in res.stdout and "R1:" in res.stdout and "plan.png" in res.stdout
+
+
+def test_a_geodetic_plan_is_the_range_frame_plan(tmp_path):
+    """The planned track in lat, lon, height (converted with the config's origin) plans as
+    the same track in range ENU."""
+    cfg = simulate_scenario(tmp_path, seed=4, duration=30.0, sensors="R1,G1")
+    truth = pd.read_csv(tmp_path / "truth.csv")
+    truth[["time", "e", "n", "u"]].to_csv(tmp_path / "enu.csv", index=False)
+    truth[["time", "lat", "lon", "height"]].to_csv(tmp_path / "geo.csv", index=False)
+    enu = run_plan(cfg, tmp_path / "enu.csv").table
+    geo = run_plan(cfg, tmp_path / "geo.csv").table
+    assert np.abs(geo[["e", "n", "u"]].to_numpy() - enu[["e", "n", "u"]].to_numpy()).max() < 0.01
+    for ax in ("e", "n", "u"):
+        assert np.median(geo[f"sigma_{ax}"] / enu[f"sigma_{ax}"]) == pytest.approx(1.0, abs=0.02)
+
+
+def test_a_platform_sensor_without_its_ins_file_is_left_out_with_a_line(tmp_path):
+    cfg = simulate_scenario(tmp_path, seed=5, duration=30.0, sensors="S1,SHIP_INS,G1")
+    (tmp_path / "SHIP_INS.csv").rename(tmp_path / "SHIP_INS_later.csv")
+    out = run_plan(cfg, tmp_path / "truth.csv")
+    assert "S1" not in out.summary["sensors"]
+    assert any(line.startswith("S1: its platform's INS (SHIP_INS)") for line in
+               out.summary["left_out"])
+    with_ins = tmp_path / "with_ins"
+    cfg2 = simulate_scenario(with_ins, seed=5, duration=30.0, sensors="S1,SHIP_INS,G1")
+    assert "S1" in run_plan(cfg2, with_ins / "truth.csv").summary["sensors"]
