@@ -594,10 +594,13 @@ def render_plan_check(data: Any) -> str:
 
 def render_range_rate(data: Any) -> str:
     rows = rows_of(data)
+    burst = data.get("burst_s") if isinstance(data, dict) else None
     out = ["Each seed's flight seen by its MISTRAM stations alone, started from a given state "
-           "(the truth perturbed by 10 m and 5 m/s), with the simulator's wild points. The "
-           "bound: the better of two smoothers told the truth (the wild rows removed, the "
-           "true noise stated, no noise adaptation), the EKF smoother and the spline fit. "
+           "(the truth perturbed by 10 m and 5 m/s), with the simulator's wild points"
+           + (f" and a noise burst (every station x10 for {burst:g} s)" if burst else "")
+           + ". The bound: the better of two smoothers told the truth (the wild rows removed, "
+           "the true noise stated, the burst's rows as a second sensor of ten times the sigma, "
+           "no noise adaptation), the EKF smoother and the spline fit. "
            "`default` is the config without a `[processing]` section (`filter = \"auto\"`); "
            "`ekf` forces the EKF. Position RMSE in m, its ratio to the bound, and the share of "
            "epochs inside 3 sigma (worst axis)."]

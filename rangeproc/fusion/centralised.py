@@ -47,7 +47,7 @@ from rangeproc.estimation.tuning import (
     start_process_noise,
 )
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
-from rangeproc.fusion.filter_choice import choose_filter
+from rangeproc.fusion.filter_choice import choose_filter, spline_or_ekf
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.lead_in import (
     forward_in_time,
@@ -268,10 +268,13 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         NoPositionFix: no span can be started (the first span's reason).
     """
     used, why = choose_filter(settings.processing.filter, batch)
-    if used != settings.processing.filter:
-        log.info("filter %s: %s", used, why)
-        settings = settings.with_processing(filter=used)
-    return replace(_fuse_spans(batch, rate_hz, settings, tick, prior), filter_used=(used, why))
+    result = _fuse_spans(batch, rate_hz, settings.with_processing(filter=used), tick, prior)
+    if used == "spline" and settings.processing.filter == "auto":   # checked by the EKF
+        ekf = _fuse_spans(batch, rate_hz, settings.with_processing(filter="ekf"),
+                          lambda *a, **k: None, prior)
+        result, used, why = spline_or_ekf(result, ekf)
+    log.info("filter %s: %s", used, why)
+    return replace(result, filter_used=(used, why))
 
 
 def _fuse_spans(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSettings,
