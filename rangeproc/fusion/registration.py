@@ -178,7 +178,9 @@ def _nodes(epoch_t: np.ndarray, grid: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate([node_t[::stride], node_t[-1:]]))
 
 
-def _nearest(node_t: np.ndarray, t: np.ndarray) -> np.ndarray:
+def nearest_index(node_t: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(M,) int64 index of the time in ``node_t`` (G,) ascending nearest to each of ``t`` (M,)
+    (the earlier one on a tie)."""
     k = np.clip(np.searchsorted(node_t, t), 1, max(len(node_t) - 1, 1))
     left = node_t[k - 1]
     right = node_t[np.minimum(k, len(node_t) - 1)]
@@ -294,7 +296,7 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
         return (Calibration(terms, total, np.zeros(p), np.zeros((p, p)), (why,) * p, node_t,
                             np.zeros((len(node_t), N_NODE, N_NODE))),
                 np.zeros(p) - total, np.zeros((len(batch), 4)))
-    node = _nearest(node_t, batch.t)
+    node = nearest_index(node_t, batch.t)
     moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
     mv_index, rates = axes_rate(batch, moving)
     slots = _slots_table(terms, len(batch.sensor_ids))
@@ -365,7 +367,7 @@ def row_rates(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
     moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
     mv_index, rates = axes_rate(batch, moving)
     slots = _slots_table(terms, len(batch.sensor_ids))
-    _, rate = postfit(meas_epoch, _nearest(node_t, batch.t), node_t, batch.t, batch.model,
+    _, rate = postfit(meas_epoch, nearest_index(node_t, batch.t), node_t, batch.t, batch.model,
                       batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs,
                       np.zeros((len(batch), 6)), np.zeros((len(node_t), N_NODE)),
                       np.zeros(len(terms)))
@@ -407,4 +409,4 @@ def calibration_covariance(cal: Calibration, t: np.ndarray) -> np.ndarray:
     times ``t`` (M,) s (the nearest node's, ``Calibration.node_cov``)."""
     i, j = np.tril_indices(N_NODE)
     packed = cal.node_cov[:, i, j]
-    return packed[_nearest(cal.node_t, t)]
+    return packed[nearest_index(cal.node_t, t)]

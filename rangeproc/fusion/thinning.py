@@ -39,7 +39,12 @@ from rangeproc.estimation.tuning import local_process_noise
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.passes import PassResult
 from rangeproc.fusion.refraction_rows import refraction_corrections
-from rangeproc.fusion.registration import Calibration, apply_increments, row_rates
+from rangeproc.fusion.registration import (
+    Calibration,
+    apply_increments,
+    nearest_index,
+    row_rates,
+)
 
 #: Spans with at most this many rows use every row in every pass.
 THIN_ABOVE_ROWS = 400_000
@@ -112,13 +117,6 @@ def _carried(x: np.ndarray, dt: np.ndarray) -> np.ndarray:
     return out
 
 
-def nearest_epoch(epoch_t: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """(M,) index of the epoch in ``epoch_t`` (E,) nearest to each time ``t`` (M,)."""
-    b = np.clip(np.searchsorted(epoch_t, t), 1, max(len(epoch_t) - 1, 1))
-    a = b - 1
-    return np.where(np.abs(t - epoch_t[a]) <= np.abs(epoch_t[b] - t), a, b).astype(np.int64)
-
-
 def steps_at(epoch_t: np.ndarray, q: np.ndarray, t: np.ndarray) -> np.ndarray:
     """(M,) the per-step white-jerk PSD ``q`` (E,) of epochs ``epoch_t`` for the steps ending
     at times ``t`` (M,): each finer step takes the coarse step that contains it."""
@@ -158,7 +156,7 @@ def expand(thin: PassRows, xs: np.ndarray, Ps: np.ndarray, full_epoch_t: np.ndar
     """The thinned pass's smoothed track ``xs`` and covariances ``Ps`` (on ``thin``'s epochs)
     carried to the full rows' epochs ``full_epoch_t`` (E,) s."""
     x = track_at(thin.epoch_t, xs, full_epoch_t)
-    return Expanded(x, Ps, nearest_epoch(thin.epoch_t, full_epoch_t))
+    return Expanded(x, Ps, nearest_index(thin.epoch_t, full_epoch_t))
 
 
 def gate_use(res: np.ndarray, hph: np.ndarray, sigma: np.ndarray, threshold: float
