@@ -35,6 +35,12 @@ def unpack(p: np.ndarray, out: np.ndarray) -> None:
             k += 1
 
 
+def packed_diagonal(Ps: np.ndarray, first: int, count: int) -> np.ndarray:
+    """(K, count) the variances ``P[i, i]``, ``i = first .. first + count - 1``, of packed
+    covariances ``Ps`` (K, n(n+1)/2) (:func:`pack`: diagonal ``i`` at ``i (i + 3) / 2``)."""
+    return np.asarray(Ps)[:, [i * (i + 3) // 2 for i in range(first, first + count)]]
+
+
 def unpack_many(Ps: np.ndarray, n: int, m: int | None = None) -> np.ndarray:
     """Unpack (K, n(n+1)/2) packed covariances (:func:`pack`'s row-by-row lower triangle)
     into their leading (K, m, m) blocks (m = n by default; the first m(m+1)/2 packed entries

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
+from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.centralised import FusionResult
 from rangeproc.fusion.registration import calibration_covariance
@@ -36,8 +37,6 @@ LEAST_RATE_HZ = 5.0
 #: The pass's starting covariance (diagonal: m^2, (m/s)^2, (m/s^2)^2): wide, as a run's
 #: own start from its first fixes.
 P0_DIAG = np.repeat([1e4, 1e2, 1e1], 3)
-#: Packed indices of the position variances (i (i + 3) / 2).
-POS_VAR = [0, 2, 5]
 
 
 def _row_sigma(result: FusionResult) -> np.ndarray:
@@ -81,8 +80,8 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
     fwd = run_filter(rows, prior, FilterSettings(np.full(7, np.inf)))
     _, Ps, _ = rts_smooth(result.epoch_t, fwd.xf, fwd.Pf, result.q, False, True)
-    var = Ps[result.grid][:, POS_VAR]
+    var = packed_diagonal(Ps[result.grid], 0, 3)
     t = result.epoch_t[result.grid]
     for cal in result.calibration:
-        var = var + calibration_covariance(cal, t)[:, POS_VAR]
+        var = var + packed_diagonal(calibration_covariance(cal, t), 0, 3)
     return np.sqrt(np.maximum(var, 0.0))

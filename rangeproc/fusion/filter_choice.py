@@ -25,6 +25,7 @@ import numpy as np
 
 from typing import Any
 
+from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import MeasurementBatch
 
 #: Component index of a range rate in the spherical model's rows ``[R, A, E, Rdot]``.
@@ -32,8 +33,6 @@ RANGE_RATE = 3
 #: Largest mean squared Mahalanobis distance (3 dof) between the spline and EKF positions
 #: at which the spline result is kept (a 3-sigma agreement on average).
 AGREE = 9.0
-#: Packed-covariance indices of the position block (lower triangle of the 3 x 3).
-_POS = ((0, 0, 0), (1, 1, 2), (1, 0, 1), (2, 2, 5), (2, 0, 3), (2, 1, 4))
 
 
 def range_rates_only(batch: MeasurementBatch) -> bool:
@@ -61,9 +60,8 @@ def spline_or_ekf(spline: Any, ekf: Any) -> tuple[Any, str, str]:
     m2 = np.inf
     if ok:
         d = spline.xs[spline.grid, :3] - ekf.xs[ekf.grid, :3]
-        C = np.zeros((len(d), 3, 3))
-        for i, j, k in _POS:
-            C[:, i, j] = C[:, j, i] = spline.Ps[spline.grid, k] + ekf.Ps[ekf.grid, k]
+        n = spline.xs.shape[1]
+        C = unpack_many(spline.Ps[spline.grid], n, 3) + unpack_many(ekf.Ps[ekf.grid], n, 3)
         m2 = float(np.mean(np.einsum("ni,ni->n", d, np.linalg.solve(C, d[:, :, None])[:, :, 0])))
     if m2 <= AGREE:
         return spline, "spline", ("auto: range rates alone observe the position weakly; the "

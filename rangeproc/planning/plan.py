@@ -35,6 +35,7 @@ import pandas as pd
 
 from rangeproc.config import Config, load_config
 from rangeproc.errors import DataError
+from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.evaluate.truth import geodetic_to_range
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import MeasurementBatch
@@ -53,9 +54,6 @@ log = logging.getLogger(__name__)
 ZENITH_ELEVATION = np.radians(80.0)
 #: A radar below this elevation (rad) looks through the most refraction and multipath.
 LOW_ELEVATION = np.radians(3.0)
-#: Packed-covariance indices of the position and velocity variances (i (i + 3) / 2).
-POS_VAR = [0, 2, 5]
-VEL_VAR = [9, 14, 20]
 
 
 @dataclass(frozen=True)
@@ -113,8 +111,8 @@ def plan_table(fused: FusionResult, state: Callable, cfg: Config,
     t = fused.epoch_t[fused.grid]
     Ps = fused.Ps[fused.grid]
     p = state(t)[0]
-    sig_p = np.sqrt(np.maximum(Ps[:, POS_VAR], 0.0))
-    sig_v = np.sqrt(np.maximum(Ps[:, VEL_VAR], 0.0))
+    sig_p = np.sqrt(np.maximum(packed_diagonal(Ps, 0, 3), 0.0))
+    sig_v = np.sqrt(np.maximum(packed_diagonal(Ps, 3, 3), 0.0))
     dt = 1.0 / cfg.output.rate_hz
     rows = fused.batch
     k = np.clip(np.searchsorted(t, rows.t - 0.5 * dt), 0, len(t) - 1)
