@@ -26,7 +26,7 @@ own noise hid is not in it, and that is the point: its maneuvers are a real airc
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +64,10 @@ class RecordedTrajectory:
     splines: tuple[UnivariateSpline, UnivariateSpline, UnivariateSpline]
     offset: np.ndarray
     drift: np.ndarray
+    node_time: np.ndarray = field(init=False, repr=False)
+    node_p: np.ndarray = field(init=False, repr=False)
+    node_v: np.ndarray = field(init=False, repr=False)
+    node_a: np.ndarray = field(init=False, repr=False)
 
     def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity, acceleration, each (M, 3), at range times ``t`` (M,) s (a
@@ -74,22 +78,12 @@ class RecordedTrajectory:
                for d in range(3)]
         return (out[0] + self.offset + np.outer(tau, self.drift), out[1] + self.drift, out[2])
 
-    @property
-    def node_time(self) -> np.ndarray:
-        """(K,) range times (s) of the truth nodes."""
-        return self.t0 + NODE_STEP * np.arange(int(math.floor(self.duration / NODE_STEP)) + 1)
-
-    @property
-    def node_p(self) -> np.ndarray:
-        return self.state(self.node_time)[0]
-
-    @property
-    def node_v(self) -> np.ndarray:
-        return self.state(self.node_time)[1]
-
-    @property
-    def node_a(self) -> np.ndarray:
-        return self.state(self.node_time)[2]
+    def __post_init__(self) -> None:
+        """The 100 Hz truth nodes, evaluated once."""
+        t = self.t0 + NODE_STEP * np.arange(int(math.floor(self.duration / NODE_STEP)) + 1)
+        p, v, a = self.state(t)
+        for name, value in (("node_time", t), ("node_p", p), ("node_v", v), ("node_a", a)):
+            object.__setattr__(self, name, value)
 
 
 def read_track(path: Path, what: str) -> TruthTable:
