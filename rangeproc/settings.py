@@ -242,8 +242,9 @@ class ProcessingSettings:
         "from the data (maximum likelihood, then local EM).", unit="m^2/s^5", positive=True,
         bounds=PROCESS_NOISE_BOUNDS)
     filter: str = key(
-        "auto", doc='The forward filter: "auto" ("ekf", or "spline" for an object measured '
-        'by range rates alone, where it comes nearer the bound; the summary says which ran), '
+        "auto", doc='The forward filter: "auto" ("ekf"; for an object measured by range '
+        'rates alone the EKF\'s passes, then the batch spline fit of the whole flight, which '
+        'comes nearer the bound there; the summary says which ran), '
         '"ekf" (linearised, Joseph form), "ukf" (unscented), '
         '"stukf" (strong-tracking UKF with multiple suboptimal fading factors, Ye and Cui), '
         '"sage-husa" (the EKF with improved Sage-Husa adaptive measurement noise, Song et '

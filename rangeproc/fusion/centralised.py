@@ -47,7 +47,7 @@ from rangeproc.estimation.tuning import (
     start_process_noise,
 )
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
-from rangeproc.fusion.filter_choice import choose_filter, spline_or_ekf
+from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.lead_in import (
     forward_in_time,
@@ -118,6 +118,8 @@ class FilterFamily:
         batch cubic B-spline fit (``estimation.spline_fit``) on the anomaly knots plus regular
         knots (``processing.spline_knot_spacing``) replaces the smoothed track
         (``fusion.spline_refine``).
+    spline_fit: that batch spline fit after the passes of another filter (``filter = "auto"``
+        on range rates alone: the EKF's, ``fusion.filter_choice``).
     """
 
     method: int = EKF
@@ -126,6 +128,7 @@ class FilterFamily:
     strong_tracking: bool = False
     imm_models: tuple[int, ...] = ()
     spline: bool = False
+    spline_fit: bool = False
 
 
 def filter_family(p: ProcessingSettings) -> FilterFamily:
@@ -268,11 +271,10 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         NoPositionFix: no span can be started (the first span's reason).
     """
     used, why = choose_filter(settings.processing.filter, batch)
-    result = _fuse_spans(batch, rate_hz, settings.with_processing(filter=used), tick, prior)
-    if used == "spline" and settings.processing.filter == "auto":   # checked by the EKF
-        ekf = _fuse_spans(batch, rate_hz, settings.with_processing(filter="ekf"),
-                          lambda *a, **k: None, prior)
-        result, used, why = spline_or_ekf(result, ekf)
+    chosen = settings.with_processing(filter=used)
+    if used == EKF_SPLINE_FIT:
+        chosen = settings.with_processing(filter="ekf").with_family(spline_fit=True)
+    result = _fuse_spans(batch, rate_hz, chosen, tick, prior)
     log.info("filter %s: %s", used, why)
     return replace(result, filter_used=(used, why))
 
@@ -521,10 +523,11 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         if not constraint_agrees(out, free[0], rho):
             rho, (out, q, noise, why, cal) = None, free
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
-    if family.spline:            # Zhou et al.'s post-flight counterpart: the batch spline fit
+    if family.spline or family.spline_fit:   # Zhou et al.'s post-flight batch spline fit
         from rangeproc.fusion.spline_refine import spline_refine   # scipy.interpolate: 0.1 s
+        anomalies = out.knots if out.knots is not None else np.empty(0)
         xs, Ps, res, hph = spline_refine(
-            out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, out.knots,
+            out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, anomalies,
             p.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
     if cal is not None:         # the calibration's uncertainty is the trajectory's too
         Ps[grid, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t[grid])

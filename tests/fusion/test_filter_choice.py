@@ -1,39 +1,11 @@
-"""filter = "auto" (``fusion.filter_choice``): range rates alone get the spline fit, checked
-by the EKF smoother: a spline result far outside their joint uncertainty is not kept."""
+"""filter = "auto" (``fusion.filter_choice``): range rates alone get the EKF's passes and the
+batch spline fit; everything else the EKF; a configured filter is kept."""
 from __future__ import annotations
-
-from types import SimpleNamespace
 
 import numpy as np
 
-from rangeproc.fusion.batch import merge
-from rangeproc.fusion.filter_choice import AGREE, choose_filter, spline_or_ekf
-from rangeproc.fusion.batch import SensorRows
-
-
-def _result(offset: float, sigma: float):
-    """A fusion result's fields the check reads: 20 epochs, positions along east + offset."""
-    n = 20
-    xs = np.zeros((n, 9))
-    xs[:, 0] = np.arange(n) * 10.0 + offset
-    Ps = np.zeros((n, 45))
-    for k in (0, 2, 5):
-        Ps[:, k] = sigma ** 2
-    return SimpleNamespace(epoch_t=np.arange(n, dtype=float), grid=np.ones(n, dtype=bool),
-                           xs=xs, Ps=Ps)
-
-
-def test_a_spline_result_within_the_joint_uncertainty_is_kept():
-    spline, ekf = _result(2.0, 1.0), _result(0.0, 1.0)     # 2 m against sqrt(2) m: m2 = 2
-    kept, used, why = spline_or_ekf(spline, ekf)
-    assert kept is spline and used == "spline" and "agrees" in why
-
-
-def test_a_diverged_spline_result_gives_way_to_the_ekf():
-    spline, ekf = _result(5000.0, 10.0), _result(0.0, 1.0)
-    kept, used, why = spline_or_ekf(spline, ekf)
-    assert kept is ekf and used == "ekf" and "strays" in why
-    assert 5000.0 ** 2 / 101.0 > AGREE
+from rangeproc.fusion.batch import SensorRows, merge
+from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
 
 
 def _rows(z: np.ndarray) -> SensorRows:
@@ -49,6 +21,6 @@ def test_auto_chooses_by_what_is_measured():
     rr[:, 3] = 1.0
     angles = rr.copy()
     angles[:, 1] = 0.1
-    assert choose_filter("auto", merge([(0, _rows(rr))], ("M",)))[0] == "spline"
+    assert choose_filter("auto", merge([(0, _rows(rr))], ("M",)))[0] == EKF_SPLINE_FIT
     assert choose_filter("auto", merge([(0, _rows(angles))], ("R",)))[0] == "ekf"
     assert choose_filter("ukf", merge([(0, _rows(rr))], ("M",))) == ("ukf", "configured")

@@ -92,14 +92,15 @@ def test_mistram_alone_spline_filter_is_accurate_and_honest(scenario, cli, expla
 
 def test_auto_runs_the_spline_fit_on_range_rates_alone_and_says_so(scenario, cli, explain
                                                                     ) -> None:
-    """The default filter ("auto") chooses the spline fit for MISTRAM alone, and the EKF
-    when position-bearing rows are there; the summary says which and why."""
+    """The default filter ("auto") runs the EKF's passes and the batch spline fit for MISTRAM
+    alone, and the EKF when position-bearing rows are there; the summary says which and
+    why."""
     config = mistram_only_config(scenario, initial=True)
     res = cli(["run", "--quiet", config])
     assert res.exit_code == 0, explain(res)
     summary = json.loads((scenario / "out" / "summary.json").read_text())
     chosen = summary["targets"]["T1"]["filter"]
-    assert (chosen["configured"], chosen["used"]) == ("auto", "spline")
+    assert (chosen["configured"], chosen["used"]) == ("auto", "ekf+spline-fit")
     assert "range rates alone" in chosen["why"]
     res = cli(["run", "--quiet", scenario / "scenario.toml"])
     assert res.exit_code == 0, explain(res)
