@@ -41,6 +41,19 @@ def sortie_config(folder: Path, name: str, out: str, sensors=FAST) -> Path:
     return path
 
 
+@pytest.fixture(autouse=True)
+def environment_restored():
+    """This process's environment as it was before each test: distributed's LocalCluster
+    writes its workers' thread limits (``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``,
+    ``OPENBLAS_NUM_THREADS`` = 1) into the environment of the process that starts it, and
+    the processes later tests start would inherit them (a rangeproc run on single-threaded
+    BLAS differs from one on several threads in the last bits of its covariances)."""
+    saved = dict(os.environ)
+    yield
+    os.environ.clear()
+    os.environ.update(saved)
+
+
 @pytest.fixture()
 def campaign_dir(tmp_path: Path) -> Path:
     """data/ (the sample's files), flights/a.toml, b.toml, c.toml, campaign.toml."""
