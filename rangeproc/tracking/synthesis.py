@@ -62,6 +62,7 @@ from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
 from rangeproc.tracking.angle_plots import angle_owners
+from rangeproc.tracking.biased_duplicates import join_biased_duplicates
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.links import conflicts, score_links
 from rangeproc.tracking.objects import (
@@ -325,6 +326,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                     replaced, tick, relay=True)
     discovered = stitch(objects, anchored, discovered, segs_of)
     discovered = relay_lone_objects(objects, declared, anchored, discovered, segs_of)
+    discovered = join_biased_duplicates(objects, [*anchored, *discovered], discovered, segs_of)
     final = sorted([*pending, *unstartable, *(s for segs in segs_of.values() for s in segs)],
                    key=lambda s: s.id)
     step5 = reassociate_plots(objects, [*anchored, *discovered], final, clutter, timings)
