@@ -71,17 +71,19 @@ def bias_fit(t: np.ndarray, z: np.ndarray, res: np.ndarray, sigma: np.ndarray
         (b (3,) offsets of range m, azimuth rad, elevation rad; tau (s); offsets (M, 6), the
         fitted ``b + tau dh/dt`` per row and component, 0 where unmeasured), or None when
         fewer rows than unknowns are usable. ``dh/dt`` is the predicted measurement's rate by
-        central differences over the rows (azimuth unwrapped).
+        central differences over the rows that measure the component (azimuth unwrapped).
     """
     pred = z[:, :3] - res[:, :3]
-    pred[:, AZIMUTH] = np.where(np.isnan(pred[:, AZIMUTH]), np.nan,
-                                np.unwrap(np.nan_to_num(pred[:, AZIMUTH])))
-    rate = np.full(pred.shape, np.nan)
-    if t.size >= 3:
-        dt = t[2:] - t[:-2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rate[1:-1] = (pred[2:] - pred[:-2]) / np.where(dt > 0, dt, np.nan)[:, None]
-    rate = np.nan_to_num(rate)
+    measured = np.isfinite(pred[:, AZIMUTH])             # unwrapped over the measured rows
+    pred[measured, AZIMUTH] = np.unwrap(pred[measured, AZIMUTH])
+    rate = np.zeros(pred.shape)
+    for c in range(3):                   # central differences over each component's rows
+        at = np.flatnonzero(np.isfinite(pred[:, c]))
+        if at.size >= 3:
+            dt = t[at[2:]] - t[at[:-2]]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rate[at[1:-1], c] = np.nan_to_num(
+                    (pred[at[2:], c] - pred[at[:-2], c]) / np.where(dt > 0, dt, np.nan))
     use = np.isfinite(res[:, :3]) & np.isfinite(sigma[:, :3]) & (sigma[:, :3] > 0)
     comps = np.flatnonzero(use.any(axis=0))
     if use.sum() < comps.size + 2:

@@ -32,15 +32,20 @@ def _rows(rng: np.random.Generator, b: np.ndarray, tau: float, sigma: np.ndarray
     return t, z, full_res, s, rate
 
 
-@pytest.mark.parametrize("wild", [False, True])
-def test_the_bias_fit_recovers_constant_offsets_and_the_latency(wild: bool) -> None:
+@pytest.mark.parametrize("case", ["clean", "wild", "gaps"])
+def test_the_bias_fit_recovers_constant_offsets_and_the_latency(case: str) -> None:
     rng = np.random.default_rng(4)
     b, tau, sigma = np.array([12.0, 5.2e-3, -1e-3]), 0.06, np.array([9.0, 3e-4, 9e-4])
     t, z, res, s, rate = _rows(rng, b, tau, sigma)
-    if wild:                                          # 2 % of the rows 200 sigmas off
+    if case == "wild":                                # 2 % of the rows 200 sigmas off
         bad = rng.choice(t.size, t.size // 50, replace=False)
         res[bad, 1] += 200.0 * sigma[1]
         z[bad, 1] += 200.0 * sigma[1]
+    if case == "gaps":          # azimuths across north (+-pi) and 5 % of the rows without one
+        z[:, 1] -= np.pi - 0.2
+        z[:, 1] = (z[:, 1] + np.pi) % (2.0 * np.pi) - np.pi
+        gone = rng.choice(t.size, t.size // 20, replace=False)
+        z[gone, 1] = res[gone, 1] = np.nan
     fit_b, fit_tau, offsets = bias_fit(t, z, res, s)
     # the error of (b, tau) against its least-squares covariance (A^T W A)^-1 with the design
     # of the rows: offsets per component, the rate of each for the latency
