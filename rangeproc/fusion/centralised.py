@@ -477,7 +477,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                     moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
                     out = out._replace(res=residuals_of(moved))
                     if k == 0 and p.process_noise is None:   # q anew on the corrected rows
-                        q0, q_next = _searched_q(b, rows.epoch_t, *start, gate, settings)
+                        q0, q_next = _searched_q(b, rows.epoch_t, x0, P0, gate, settings)
                         log.info("registration corrected the rows: q = %.3g m^2/s^5 (maximum "
                                  "likelihood again)", q0)
             if p.adapt_noise:
