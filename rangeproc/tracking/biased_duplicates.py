@@ -40,7 +40,7 @@ from rangeproc.fusion.registration import PRIOR_SIGMA
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.objects import Objects, Segment, as_batch, member_conflict
-from rangeproc.tracking.score import score_rows
+from rangeproc.tracking.score import scores_after_offset
 
 log = logging.getLogger(__name__)
 
@@ -122,20 +122,23 @@ def _fit_score(objects: Objects, sensor: int, rows: np.ndarray, other: str) -> f
     batch = as_batch(objects.rows[sensor], objects.sensor_ids, sensor)
     if inside.size < 0.5 * rows.size or np.any(batch.model[inside] != SPHERICAL):
         return np.inf
-    res, _, _ = score_rows(batch, inside, track)
-    fit = bias_fit(batch.t[inside], batch.z[inside], res, batch.sigma[inside])
-    if fit is None:
+    def plausible_offsets(res: np.ndarray) -> np.ndarray | None:
+        """The bias fit's offsets (M, 6) when the fit is possible and plausible, else None."""
+        fit = bias_fit(batch.t[inside], batch.z[inside], res, batch.sigma[inside])
+        if fit is None or np.any(np.abs(fit[0]) > PRIOR_SIGMAS * _PRIOR_OFFSET) \
+                or abs(fit[1]) > PRIOR_SIGMAS * PRIOR_SIGMA["latency"]:
+            return None
+        return fit[2]
+
+    scored = scores_after_offset(batch, inside, track, plausible_offsets)
+    if scored is None:
         return np.inf
-    b, tau, offsets = fit
-    if np.any(np.abs(b) > PRIOR_SIGMAS * _PRIOR_OFFSET) \
-            or abs(tau) > PRIOR_SIGMAS * PRIOR_SIGMA["latency"]:
-        return np.inf
-    _, nis, _ = score_rows(batch, inside, track, offsets)
+    nis = scored[1]
     dof = np.maximum(np.isfinite(batch.z[inside]).sum(axis=1), 1)
     ratio = max(float(np.median(nis / chi2_ppf(0.5, dof))),
                 float(np.quantile(nis / chi2_ppf(0.9, dof), 0.9)))
-    log.debug("bias fit of %s's rows to %s: offsets %s, latency %.3g s, NIS %.3g of "
-              "chi-square", objects.sensor_ids[sensor], other, b, tau, ratio)
+    log.debug("bias fit of %s's rows to %s: NIS %.3g of chi-square", objects.sensor_ids[sensor],
+              other, ratio)
     return ratio
 
 

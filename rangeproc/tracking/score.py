@@ -26,6 +26,7 @@ look like another object.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -431,20 +432,35 @@ def _deleted_residual_scores(rows: np.ndarray, sel: np.ndarray, sigma: np.ndarra
                              + log_ext[i], eps)
 
 
-def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
-                  ) -> tuple[float, np.ndarray, np.ndarray]:
-    """A segment's score against an object: (sum of row llr after removing the clipped
-    median offset, the offset (6,), per-row llr (M,)). Module docstring. The object is
-    carried to the rows once; the scores with and without the offset share it."""
+def scores_after_offset(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
+                        offset_of: Callable[[np.ndarray], np.ndarray | None]
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The rows' scores against an object with an offset removed that their own residuals
+    give: ``offset_of(res)`` of the residuals ``res`` (M, 6) returns the offset, (6,) or
+    (M, 6), or None (then None is returned). Returns (offset, NIS (M,), llr (M,)). The object
+    is carried to the rows once; the scores with and without the offset share it."""
     sel = np.asarray(rows, dtype=np.int64)
     geometry = _geometry(batch, sel, track)
     res, _, _ = row_llr(sel, batch.model, batch.z, np.zeros((sel.size, N_COMPONENTS)),
                         *geometry, OUTLIER_PROBABILITY)
+    off = offset_of(res)
+    if off is None:
+        return None
+    _, nis, llr = row_llr(sel, batch.model, batch.z, np.broadcast_to(off, res.shape).copy(),
+                          *geometry, OUTLIER_PROBABILITY)
+    return off, nis, llr
+
+
+def segment_score(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
+                  ) -> tuple[float, np.ndarray, np.ndarray]:
+    """A segment's score against an object: (sum of row llr after removing the clipped
+    median offset, the offset (6,), per-row llr (M,)). Module docstring."""
+    sel = np.asarray(rows, dtype=np.int64)
     spherical = batch.model[sel[0]] == SPHERICAL
     tol = BIAS_TOLERANCE_SPHERICAL if spherical else BIAS_TOLERANCE_CARTESIAN
-    off = clipped_median_offset(res, batch.sigma, sel, tol, BIAS_SIGMAS)
-    _, _, llr = row_llr(sel, batch.model, batch.z, np.broadcast_to(off, res.shape).copy(),
-                        *geometry, OUTLIER_PROBABILITY)
+    off, _, llr = scores_after_offset(
+        batch, sel, track, lambda res: clipped_median_offset(res, batch.sigma, sel, tol,
+                                                             BIAS_SIGMAS))
     return float(llr.sum()), off, llr
 
 
