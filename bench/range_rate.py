@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import re
 import sys
 import tempfile
 from pathlib import Path
@@ -40,12 +39,15 @@ from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_scenario
 from rangeproc.simulate.scenario import draw_scenario
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))                # tests.*
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fusion"))
+from test_range_rate_burst import (  # noqa: E402  (the tests' own burst and told config)
+    BURST_FACTOR,
+    WILD_SIGMAS,
+    told_config,
+)
 from test_range_rate_only import mistram_only_config  # noqa: E402  (the tests' own config)
 
-WILD_SIGMAS = 5.0
-#: A noise burst multiplies every station's noise by this (``--burst`` seconds of it).
-BURST_FACTOR = 10.0
 
 
 def score(cfg: Path, truth: Path) -> dict:
@@ -88,16 +90,10 @@ def one_seed(seed: int, duration: float, tmp: Path, burst_s: float = 0.0) -> dic
     true_sigma = sigma * np.where(in_burst, BURST_FACTOR, 1.0)
     wild = np.array((both.range_rate - both.range_rate_exact).abs()) > WILD_SIGMAS * true_sigma
     both.loc[~wild & ~in_burst, rows.columns].to_csv(folder / "MISTRAM_told.csv", index=False)
-    told = re.sub(r"sigma = \{ range_rate = [\d.]+ \}", f"sigma = {{ range_rate = {sigma} }}",
-                  base.replace('file = "MISTRAM.csv"', 'file = "MISTRAM_told.csv"'))
     if in_burst.any():
         both.loc[~wild & in_burst, rows.columns].to_csv(folder / "MISTRAM_burst.csv",
                                                         index=False)
-        block = re.search(r'(?s)\[\[sensors\]\]\nid = "MISTRAM"\n.*?(?=\n\[|\Z)', told).group(0)
-        second = (block.replace('id = "MISTRAM"', 'id = "MISTRAM_BURST"')
-                  .replace('file = "MISTRAM_told.csv"', 'file = "MISTRAM_burst.csv"')
-                  .replace(f"range_rate = {sigma} ", f"range_rate = {BURST_FACTOR * sigma} "))
-        told += "\n" + second + "\n"
+    told = told_config(base, sigma, burst=bool(in_burst.any()))
     truth = folder / "truth.csv"
     runs = {
         "default": score(variant(base, folder, "default", ""), truth),

@@ -55,16 +55,26 @@ def _scenario(folder: Path) -> tuple[Path, Path]:
     assert 0 < wild.sum() < 0.1 * len(rows)          # the simulator's wild points are there
     rows[~wild & ~burst].to_csv(folder / "MISTRAM_told.csv", index=False)
     rows[~wild & burst].to_csv(folder / "MISTRAM_burst.csv", index=False)
-    text = re.sub(r"sigma = \{ range_rate = [\d.]+ \}", f"sigma = {{ range_rate = {sigma} }}",
-                  config.read_text().replace('file = "MISTRAM.csv"', 'file = "MISTRAM_told.csv"'))
-    block = re.search(r'(?s)\[\[sensors\]\]\nid = "MISTRAM"\n.*?(?=\n\[|\Z)', text).group(0)
-    text += "\n" + (block.replace('id = "MISTRAM"', 'id = "MISTRAM_BURST"')
-                    .replace("MISTRAM_told.csv", "MISTRAM_burst.csv")
-                    .replace(f"range_rate = {sigma} ", f"range_rate = {BURST_FACTOR * sigma} "))
     told = folder / "told.toml"
-    told.write_text(text.replace('dir = "out"', 'dir = "out_told"')
-                    + '\n[processing]\nadapt_noise = false\n')
+    told.write_text(told_config(config.read_text(), sigma, burst=True).replace(
+        'dir = "out"', 'dir = "out_told"') + '\n[processing]\nadapt_noise = false\n')
     return config, told
+
+
+def told_config(text: str, sigma: float, *, burst: bool) -> str:
+    """A MISTRAM-only config's text told the truth: its rows from ``MISTRAM_told.csv`` with
+    the true ``sigma`` (m/s) and, with ``burst``, the burst's rows from ``MISTRAM_burst.csv``
+    as a second MISTRAM sensor of :data:`BURST_FACTOR` times the sigma."""
+    text = re.sub(r"sigma = \{ range_rate = [\d.]+ \}", f"sigma = {{ range_rate = {sigma} }}",
+                  text.replace('file = "MISTRAM.csv"', 'file = "MISTRAM_told.csv"'))
+    if burst:
+        block = re.search(r'(?s)\[\[sensors\]\]\nid = "MISTRAM"\n.*?(?=\n\[|\Z)',
+                          text).group(0)
+        text += "\n" + (block.replace('id = "MISTRAM"', 'id = "MISTRAM_BURST"')
+                        .replace("MISTRAM_told.csv", "MISTRAM_burst.csv")
+                        .replace(f"range_rate = {sigma} ",
+                                 f"range_rate = {BURST_FACTOR * sigma} ")) + "\n"
+    return text
 
 
 def test_range_rates_alone_through_a_noise_burst_stay_near_the_bound(tmp_path):
