@@ -276,9 +276,8 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         NoPositionFix: no span can be started (the first span's reason).
     """
     used, why = choose_filter(settings.processing.filter, batch)
-    chosen = settings.with_processing(filter=used)
-    if used == EKF_SPLINE_FIT:
-        chosen = settings.with_processing(filter="ekf").with_family(spline_fit=True)
+    chosen = (settings.with_processing(filter="ekf").with_family(spline_fit=True)
+              if used == EKF_SPLINE_FIT else settings.with_processing(filter=used))
     result = _fuse_spans(batch, rate_hz, chosen, tick, prior)
     log.info("filter %s: %s", used, why)
     return replace(result, filter_used=(used, why))
