@@ -43,7 +43,7 @@ from rangeproc.estimation.registration import (
     process_blocks,
     solve_joint,
 )
-from rangeproc.estimation.consider import consider_split
+from rangeproc.estimation.consider import consider_covariance
 from rangeproc.fusion.assemble import deck_turn
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import SPHERICAL
@@ -67,10 +67,9 @@ PREFERENCE = {"latency": 0, "range": 1, "azimuth": 1, "elevation": 1, "mount_rol
 UNOBSERVABLE_RATIO = 0.1
 #: An estimated term corrects the rows when it differs from zero by this many of its sigmas
 #: (a significance test: an insignificant correction would only add its own error, which is
-#: systematic over the whole flight). The applied terms take their estimate given that the
-#: others are zero, and the uncertainty of every term, applied, insignificant or
-#: undetermined (at its ``PRIOR_SIGMA``), enters the trajectory's covariance
-#: (``estimation.consider``).
+#: systematic over the whole flight). The uncertainty of every term, applied, insignificant
+#: (with the square of its estimate) or undetermined (at its ``PRIOR_SIGMA``), enters the
+#: trajectory's covariance (``estimation.consider``).
 SIGNIFICANCE = 3.0
 #: Most nodes of the trajectory correction (output-grid epochs, thinned evenly beyond this).
 #: The biases are constant and the correction between nodes smooth: 5,000 nodes (one per
@@ -115,12 +114,12 @@ class Calibration:
     """The registration of one span after its last solve.
 
     terms: the candidate terms; estimate (p,) SI, the joint estimates (0 where not
-    estimated); applied (p,) the corrections in the rows (for the significant terms their
-    estimate given the others zero, 0 elsewhere); cov (p, p) the joint covariance of the
-    estimated ones (0 elsewhere); reason: per term, '' when estimated, else why not; node_t
-    (G,) and node_cov (G, 9, 9): the trajectory covariance the calibration's uncertainty adds
-    at the nodes (``estimation.consider``: the applied terms' covariance and the terms left
-    uncorrected as consider parameters).
+    estimated); applied (p,) the corrections in the rows (the significant terms' estimates,
+    0 elsewhere); cov (p, p) the joint covariance of the estimated ones (0 elsewhere);
+    reason: per term, '' when estimated, else why not; node_t (G,) and node_cov (G, 9, 9):
+    the trajectory covariance the calibration's uncertainty adds at the nodes
+    (``estimation.consider``: every term's posterior covariance, and the terms left
+    uncorrected with the square of their estimate).
     """
 
     terms: tuple[Term, ...]
@@ -346,7 +345,8 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     estimate = total + dc
     sigma = np.sqrt(np.diag(cov))
     significant = (dc != 0.0) & (np.abs(estimate) > SIGNIFICANCE * sigma)
-    applied, node_cov = consider_split(S, s, s_prior, total, significant, Xc)
+    applied = np.where(significant, estimate, 0.0)
+    node_cov = consider_covariance(S, s, s_prior, total, applied, Xc)
     for k, term in enumerate(terms):
         if reason[k] == "":
             log.info("registration: %s %s %+.4g +- %.2g %s%s", batch.sensor_ids[term.sensor],
