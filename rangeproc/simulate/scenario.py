@@ -20,6 +20,7 @@ random numbers (the noise is the same as without faults) and are written as
 """
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import json
 import logging
@@ -110,6 +111,8 @@ class Scenario:
     mistram_sigma: float
     wild_fraction: float
     rate_scale: float = 1.0
+    #: the sensors' streams (sampling, noise, wild points) from this seed instead of ``seed``
+    noise_seed: int | None = None
 
     def rate(self, sid: str) -> float:
         """Sample rate of sensor ``sid`` (Hz): its base rate times ``rate_scale``."""
@@ -251,7 +254,8 @@ def build_columns(sc: Scenario, sid: str, *, noise: bool = True,
     f = dict(faults or {})
     # child streams of default_rng(seed): 0 geometry, 1 trajectory, 2 + i sensor i (timing and
     # faults/noise split again) -> each file depends only on the seed and its own stream
-    timing, nz = np.random.default_rng(sc.seed).spawn(3 + SENSOR_IDS.index(sid))[-1].spawn(2)
+    streams = sc.seed if sc.noise_seed is None else sc.noise_seed
+    timing, nz = np.random.default_rng(streams).spawn(3 + SENSOR_IDS.index(sid))[-1].spawn(2)
     t0, dur, off = sc.t0, sc.duration, sc.offset(sid)
     t_true = sn.sample_times(timing, t0, dur, sc.rate(sid))
     if sid == "G1":
@@ -352,7 +356,8 @@ def config_text(sc: Scenario, ids: list[str], *, faulted: bool = False) -> str:
     o = sc.origin
     scaled = "" if sc.rate_scale == 1.0 else f", sample rates x{sc.rate_scale:g}"
     cal = f"; systematic sensor faults in {TRUTH_CALIBRATION}" if faulted else ""
-    lines = [f"# simulated scenario (rangeproc.simulate), seed {sc.seed}, "
+    draw = "" if sc.noise_seed is None else f", sensor noise seed {sc.noise_seed}"
+    lines = [f"# simulated scenario (rangeproc.simulate), seed {sc.seed}{draw}, "
              f"duration {sc.duration:g} s{scaled}; truth in truth.csv{cal}", "",
              "[range]", f"origin = {_geo_toml(o)}", "", "[output]", 'dir = "out"',
              "rate_hz = 10.0", "", "[[targets]]", 'id = "T1"']
@@ -500,7 +505,7 @@ def resolve_faults(spec: str) -> dict[str, dict[str, float]]:
 def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
                       sensors: str = "all", noise: bool = True, rate_scale: float = 1.0,
                       faults: Mapping[str, Mapping[str, float]] | None = None,
-                      trajectory: Path | None = None) -> Path:
+                      trajectory: Path | None = None, noise_seed: int | None = None) -> Path:
     """Write sensor files, ``scenario.toml`` and ``truth.csv`` into out_dir; return the config.
 
     duration: seconds of flight (>= 20). sensors: 'all' or e.g. 'R1,S1,SHIP_INS,G1'.
@@ -514,6 +519,8 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     sensors written). None or {} writes exactly the fault-free files (and no such file).
     trajectory: a recorded track (``simulate.recorded``, the truth format of ``rangeproc
     evaluate``) to fly instead of the seed's drawn one, for at most ``duration`` seconds.
+    noise_seed: draw the sensors' sampling times, noise, wild points and empty cells from this
+    seed instead of ``seed``: the same flight, sites and sigmas measured again (Monte Carlo).
     """
     if not duration >= 20.0 or not math.isfinite(duration):
         raise ConfigError(f"simulate: duration={duration!r}: must be a number >= 20 s")
@@ -526,6 +533,8 @@ def simulate_scenario(out_dir: Path, *, seed: int = 1, duration: float = 120.0,
     out_dir.mkdir(parents=True, exist_ok=True)
     recording = read_recording(trajectory) if trajectory is not None else None
     sc = draw_scenario(int(seed), float(duration), float(rate_scale), recording)
+    if noise_seed is not None:
+        sc = dataclasses.replace(sc, noise_seed=int(noise_seed))
     for sid in ids:
         cols = build_columns(sc, sid, noise=noise, faults=checked.get(sid))
         atomic_write_table(out_dir / FILES[sid], cols)

@@ -110,6 +110,23 @@ def test_deterministic_and_subset(tmp_path):
     assert not list(tmp_path.rglob("*.tmp"))
 
 
+def test_noise_seed_measures_the_same_flight_again(tmp_path):
+    """Another noise seed: the same truth, sites, sigmas and rows' rates; other draws of the
+    sampling and noise, around the same exact measurements."""
+    a = simulate_scenario(tmp_path / "a", seed=7, duration=DUR)
+    b = simulate_scenario(tmp_path / "b", seed=7, duration=DUR, noise_seed=70)
+    x = simulate_scenario(tmp_path / "x", seed=7, duration=DUR, noise=False, noise_seed=70)
+    assert filecmp.cmp(a.parent / "truth.csv", b.parent / "truth.csv", shallow=False)
+    assert b.read_text().splitlines()[1:] == a.read_text().splitlines()[1:]
+    assert "sensor noise seed 70" in b.read_text().splitlines()[0]
+    ra, rb, rx = (pd.read_csv(p.parent / "MISTRAM.csv") for p in (a, b, x))
+    assert abs(len(ra) - len(rb)) <= 0.01 * len(ra)
+    assert not np.array_equal(ra["range_rate"][:100], rb["range_rate"][:100])
+    sigma = tomllib.loads(b.read_text())["sensors"][-1]["sigma"]["range_rate"]
+    err = (rb["range_rate"] - rx["range_rate"]).to_numpy()     # rows alike: timing stream shared
+    assert np.median(np.abs(err)) / 0.6745 == pytest.approx(sigma, rel=0.1)
+
+
 @pytest.mark.parametrize("sensors", ["R2", "S1,G1", ""])
 def test_bad_sensor_list(tmp_path, sensors):
     with pytest.raises(ConfigError, match="sensors="):
