@@ -20,7 +20,8 @@ from rangeproc.report.common import (
 
 def plan_figure(table: pd.DataFrame, summary: dict, path: Path) -> Path:
     """``plan.png``: the predicted 1-sigma position (m) and velocity (m/s) per axis against
-    time from the plan's start (s, log scale), and below them each sensor's coverage (a bar
+    time from the plan's start (s, log scale), solid with the calibration's uncertainty and
+    dotted with every calibration term known, and below them each sensor's coverage (a bar
     where it has rows), weak geometry marked in red."""
     with matplotlib.rc_context(STYLE):
         return _draw(table, summary, path)
@@ -33,8 +34,13 @@ def _draw(table: pd.DataFrame, summary: dict, path: Path) -> Path:
     ax_p, ax_v, ax_s = fig.subplots(3, 1, sharex=True,
                                     gridspec_kw={"height_ratios": [3, 2, 0.4 + 0.35 * len(ids)]})
     for i, ax in enumerate("enu"):
-        ax_p.plot(t, table[f"sigma_{ax}"], color=CYCLE[i], lw=1.2, label=f"σ {ax.upper()}")
-        ax_v.plot(t, table[f"sigma_v{ax}"], color=CYCLE[i], lw=1.2, label=f"σ v{ax}")
+        for part, name, style in (("", "", "-"), ("_calibrated", ", calibration known", ":")):
+            if f"sigma_{ax}{part}" not in table:
+                continue
+            ax_p.plot(t, table[f"sigma_{ax}{part}"], color=CYCLE[i], lw=1.2, ls=style,
+                      label=f"σ {ax.upper()}{name}")
+            ax_v.plot(t, table[f"sigma_v{ax}{part}"], color=CYCLE[i], lw=1.2, ls=style,
+                      label=f"σ v{ax}{name}")
     for ax in (ax_p, ax_v):
         log_axis(ax)
         ax.grid(True, which="both", alpha=0.3)

@@ -18,8 +18,10 @@ test.
 
 Outputs in the config's ``[output] dir``: ``plan.parquet`` (one row per output epoch:
 ``time``, ``e, n, u`` the planned position, ``sigma_e, sigma_n, sigma_u`` (m),
-``sigma_ve, sigma_vn, sigma_vu`` (m/s), ``n_sensors`` and ``sensors`` (the sensors with rows
-within the epoch's output interval), ``weak`` (weak geometry there, e.g. ``TH1 near zenith
+``sigma_ve, sigma_vn, sigma_vu`` (m/s), the same with ``_calibrated`` appended (every
+calibration term known: the sensors calibrated exactly, or free of systematic errors; the
+calibration's share of the covariance left out), ``n_sensors`` and ``sensors`` (the sensors
+with rows within the epoch's output interval), ``weak`` (weak geometry there, e.g. ``TH1 near zenith
 (84 deg)``)), ``plan.json`` (the sensors as planned, the calibration terms' predicted sigma
 or why they stay unobservable, the sigma's summary) and ``plan.png``.
 """
@@ -40,7 +42,8 @@ from rangeproc.evaluate.truth import geodetic_to_range
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.calibration_summary import calibration_summary
-from rangeproc.fusion.centralised import FusionResult, fuse_target
+from rangeproc.fusion.centralised import N_PACKED_NODE, FusionResult, fuse_target
+from rangeproc.fusion.registration import calibration_covariance
 from rangeproc.io.writers import write_json, write_parquet
 from rangeproc.models.measurement import SPHERICAL
 from rangeproc.planning.figure import plan_figure
@@ -113,6 +116,11 @@ def plan_table(fused: FusionResult, state: Callable, cfg: Config,
     p = state(t)[0]
     sig_p = np.sqrt(np.maximum(packed_diagonal(Ps, 0, 3), 0.0))
     sig_v = np.sqrt(np.maximum(packed_diagonal(Ps, 3, 3), 0.0))
+    known = Ps[:, :N_PACKED_NODE].copy()        # every calibration term known: its share out
+    for cal in fused.calibration:
+        known -= calibration_covariance(cal, t)
+    known_p = np.sqrt(np.maximum(packed_diagonal(known, 0, 3), 0.0))
+    known_v = np.sqrt(np.maximum(packed_diagonal(known, 3, 3), 0.0))
     dt = 1.0 / cfg.output.rate_hz
     rows = fused.batch
     k = np.clip(np.searchsorted(t, rows.t - 0.5 * dt), 0, len(t) - 1)
@@ -136,6 +144,8 @@ def plan_table(fused: FusionResult, state: Callable, cfg: Config,
         "time": t, "e": p[:, 0], "n": p[:, 1], "u": p[:, 2],
         "sigma_e": sig_p[:, 0], "sigma_n": sig_p[:, 1], "sigma_u": sig_p[:, 2],
         "sigma_ve": sig_v[:, 0], "sigma_vn": sig_v[:, 1], "sigma_vu": sig_v[:, 2],
+        **{f"sigma_{ax}_calibrated": known_p[:, i] for i, ax in enumerate("enu")},
+        **{f"sigma_v{ax}_calibrated": known_v[:, i] for i, ax in enumerate("enu")},
         "n_sensors": seen.sum(axis=1).astype(np.int64),
         "sensors": [",".join(ids[j] for j in np.flatnonzero(r)) for r in seen],
         "weak": ["; ".join(w) for w in weak]})

@@ -11,8 +11,9 @@ from rangeproc.planning.plan import run_plan
 from rangeproc.simulate import simulate_scenario
 from tests.conftest import describe, invoke
 
-COLUMNS = ["time", "e", "n", "u", "sigma_e", "sigma_n", "sigma_u", "sigma_ve", "sigma_vn",
-           "sigma_vu", "n_sensors", "sensors", "weak"]
+SIGMAS = ["sigma_e", "sigma_n", "sigma_u", "sigma_ve", "sigma_vn", "sigma_vu"]
+COLUMNS = ["time", "e", "n", "u", *SIGMAS, *[f"{c}_calibrated" for c in SIGMAS], "n_sensors",
+           "sensors", "weak"]
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +50,27 @@ def test_the_plan_table_and_summary(planned_and_flown):
     assert s["sensors"]["R1"]["calibration"]["range"]["predicted_sigma"] > 0
     assert "unobservable" in s["sensors"]["G1"]["calibration"]["latency"]
     assert s["sensors"]["R1"]["rate_and_components_from"] == "file"
+
+
+def test_the_calibrated_sigma_is_the_plan_without_the_calibration(planned_and_flown, tmp_path):
+    """The ``_calibrated`` columns are the smoother's sigma with every term known: the plan of
+    the same config with the registration off (no term of the planned rows is significant,
+    so both runs see the same rows), and below the sigma with the terms' uncertainty."""
+    folder, plan, _ = planned_and_flown
+    assert not any(c.get("applied") for s in plan.summary["sensors"].values()
+                   for c in s.get("calibration", {}).values())
+    cfg = folder / "scenario.toml"
+    off = tmp_path / "off.toml"
+    off.write_text(cfg.read_text().replace('dir = "out"', f'dir = "{tmp_path / "out"}"')
+                   + "\n[processing]\ncalibration = false\n")
+    for name in ("R1.csv", "S1.csv", "SHIP_INS.csv", "G1.csv", "MISTRAM.csv"):
+        (tmp_path / name).symlink_to(folder / name)
+    t_off = run_plan(off, folder / "truth.csv").table
+    t = plan.table
+    for c in SIGMAS:
+        assert t[f"{c}_calibrated"].to_numpy() == pytest.approx(t_off[c].to_numpy(), rel=1e-6)
+        assert (t[f"{c}_calibrated"] <= t[c] * (1 + 1e-9)).all()
+    assert max(np.median(1.0 - t[f"{c}_calibrated"] / t[c]) for c in SIGMAS[:3]) > 0.02
 
 
 def test_a_sensor_without_file_takes_its_rate_and_the_kinds_components(tmp_path):
