@@ -134,3 +134,21 @@ def test_missing_inputs(tmp_path):
     path = _write(tmp_path, fused, truth)
     with pytest.raises(DataError, match="missing column 'sigma_u'"):
         evaluate_run(tmp_path, path)
+
+
+@pytest.mark.parametrize("terms", [0, 2])
+def test_a_nees_below_its_bounds_with_estimated_calibration_says_why(tmp_path, terms):
+    """A sigma far larger than the error: one line naming the calibration terms' share, only
+    when the run's summary.json says it estimated some (null estimates do not count)."""
+    truth = _truth()
+    t = T0 + 0.1 * np.arange(150)
+    fused = _fused(truth, t, dpos=(0.01, 0.0, 0.0), sigma=(1.0, 1.0, 1.0))
+    cal = {"range": {"estimate": 0.1, "sigma": 0.2}, "latency": {"estimate": None}}
+    sensors = {f"R{k}": {"calibration": cal} for k in range(terms)}
+    (tmp_path / "summary.json").write_text(json.dumps({"sensors": sensors}))
+    m = evaluate_run(tmp_path, _write(tmp_path, fused, truth))
+    assert m["calibration_terms"] == terms
+    lines = [x for x in format_report(m).splitlines() if x.startswith("NEES under")]
+    assert len(lines) == (1 if terms else 0)
+    if terms:
+        assert "(T1)" in lines[0] and "the 2 calibration terms" in lines[0]
