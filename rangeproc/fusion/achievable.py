@@ -26,7 +26,7 @@ from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
 from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.centralised import FusionResult
-from rangeproc.fusion.registration import calibration_covariance
+from rangeproc.fusion.registration import spans_calibration_covariance
 from rangeproc.models.motion import N_KINEMATIC
 
 #: Most rows the achievable-accuracy pass runs on (the rest: thinned, module docstring).
@@ -82,6 +82,5 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     _, Ps, _ = rts_smooth(result.epoch_t, fwd.xf, fwd.Pf, result.q, False, True)
     var = packed_diagonal(Ps[result.grid], 0, 3)
     t = result.epoch_t[result.grid]
-    for cal in result.calibration:
-        var = var + packed_diagonal(calibration_covariance(cal, t), 0, 3)
+    var = var + packed_diagonal(spans_calibration_covariance(result.calibration, t), 0, 3)
     return np.sqrt(np.maximum(var, 0.0))

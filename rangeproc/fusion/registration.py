@@ -27,6 +27,7 @@ rotate the sensor's axes relative to the INS body axes in the attitude's 3-2-1 s
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -410,3 +411,15 @@ def calibration_covariance(cal: Calibration, t: np.ndarray) -> np.ndarray:
     i, j = np.tril_indices(N_NODE)
     packed = cal.node_cov[:, i, j]
     return packed[nearest_index(cal.node_t, t)]
+
+
+def spans_calibration_covariance(cals: Sequence[Calibration], t: np.ndarray) -> np.ndarray:
+    """(M, 45) packed 9x9 covariance the calibrations of a result's spans add at times ``t``
+    (M,) s: each span's :func:`calibration_covariance` within its nodes' time range, as the
+    fusion added it to that span's output epochs; 0 outside every span."""
+    out = np.zeros((len(t), N_NODE * (N_NODE + 1) // 2))
+    for cal in cals:
+        if len(cal.node_t):
+            inside = (t >= cal.node_t[0]) & (t <= cal.node_t[-1])
+            out[inside] += calibration_covariance(cal, t[inside])
+    return out

@@ -43,7 +43,7 @@ from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.calibration_summary import calibration_summary
 from rangeproc.fusion.centralised import N_PACKED_NODE, FusionResult, fuse_target
-from rangeproc.fusion.registration import calibration_covariance
+from rangeproc.fusion.registration import spans_calibration_covariance
 from rangeproc.io.writers import write_json, write_parquet
 from rangeproc.models.measurement import SPHERICAL
 from rangeproc.planning.figure import plan_figure
@@ -116,9 +116,7 @@ def plan_table(fused: FusionResult, state: Callable, cfg: Config,
     p = state(t)[0]
     sig_p = np.sqrt(np.maximum(packed_diagonal(Ps, 0, 3), 0.0))
     sig_v = np.sqrt(np.maximum(packed_diagonal(Ps, 3, 3), 0.0))
-    known = Ps[:, :N_PACKED_NODE].copy()        # every calibration term known: its share out
-    for cal in fused.calibration:
-        known -= calibration_covariance(cal, t)
+    known = Ps[:, :N_PACKED_NODE] - spans_calibration_covariance(fused.calibration, t)
     known_p = np.sqrt(np.maximum(packed_diagonal(known, 0, 3), 0.0))
     known_v = np.sqrt(np.maximum(packed_diagonal(known, 3, 3), 0.0))
     dt = 1.0 / cfg.output.rate_hz

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 
 from rangeproc.evaluate import evaluate_run
+from rangeproc.fusion.registration import Calibration, spans_calibration_covariance
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_scenario
 
@@ -42,3 +44,17 @@ def test_process_noise_is_searched_again_once_the_rows_are_corrected(tmp_path):
     assert t["pos_rmse"] < 0.12
     latency = out.summary["sensors"]["MISTRAM"]["calibration"]["latency"]
     assert not latency["applied"] and abs(latency["estimate"]) < 3.0 * latency["sigma"]
+
+
+def test_each_span_adds_its_own_calibration_covariance():
+    """Two spans' calibrations: at a time inside one span only that span's covariance (its
+    nearest node's), none between or outside the spans."""
+    def cal(t0: float, scale: float) -> Calibration:
+        node_t = t0 + np.arange(3.0)
+        node_cov = scale * np.arange(1.0, 4.0)[:, None, None] * np.eye(9)[None]
+        return Calibration((), np.zeros(0), np.zeros(0), np.zeros((0, 0)), (), node_t, node_cov)
+
+    t = np.array([0.0, 1.1, 2.0, 5.0, 10.0, 11.9, 20.0])
+    got = spans_calibration_covariance((cal(0.0, 1.0), cal(10.0, 100.0)), t)
+    assert got[:, 0].tolist() == [1.0, 2.0, 3.0, 0.0, 100.0, 300.0, 0.0]
+    assert got.shape == (7, 45) and (got[:, 1] == 0.0).all()     # off-diagonal (1, 0)
