@@ -24,11 +24,8 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    removed from the rows (``fusion.refraction_rows``, once) and the sensors' biases, latency
    and mount misalignment are registered and removed (``fusion.registration``), and the
    calibration's uncertainty is finally added to the output epochs' covariance. When the
-   first registration corrects the rows, q is searched again on them: the first search ran
-   on rows with their sensors' biases and, to reconcile a radar 18 m long with a ship radar
-   yawed 5 mrad, chose a q hundreds of times the manoeuvre's, which the EM updates bring down
-   only slowly (a factor of about 1.4 per pass); meanwhile the loose track let a MISTRAM
-   latency absorb the rest (1.5 ms, 6 sigma from the true 0) and moved the trajectory 0.3 m.
+   first registration corrects the rows, q is searched again on them (the first search saw
+   the sensors' biases as motion: ``docs/methods/estimators.md``, step 3).
 """
 from __future__ import annotations
 
