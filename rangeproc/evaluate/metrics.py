@@ -177,10 +177,30 @@ def evaluate_run(out_dir: Path, truth_path: Path, cutoff: float = 50.0,
             fused[["e", "n", "u"]].to_numpy(float), truth.time, truth_ids, truth.pos,
             cutoff=cutoff, where=str(fused_path))
         result["multi"] = summarise(ev, observed)
+        _match_by_assignment(result, fused, fused_ids, truth, truth_ids, str(fused_path))
         if series_path is not None:
             write_parquet(pd.DataFrame(gospa_series(ev)), series_path)
             result["multi"]["gospa"]["series_file"] = str(series_path)
     return result
+
+
+def _match_by_assignment(result: dict[str, Any], fused: pd.DataFrame, fused_ids: pd.Series,
+                         truth: Truth, truth_ids: np.ndarray, where: str) -> None:
+    """Per-object errors for truth objects whose id no fused object carries (a truth naming
+    its boats B1, B2 against discovered objects O1, T1): each is compared with its best match
+    of the several-objects assignment (``multi.truth.<id>.best_match``) and entered in
+    ``result["targets"]`` under the truth id with ``fused_id`` naming the match; fused objects
+    matched so leave ``result["unmatched"]``."""
+    matched = set()
+    for tid, m in result["multi"]["truth"].items():
+        fid = m.get("best_match")
+        if tid in result["targets"] or fid is None:
+            continue
+        grp = fused[fused_ids == fid]
+        metrics = target_metrics(grp, truth, truth_ids == tid, f"{where}: target {fid}")
+        result["targets"][tid] = {"fused_id": fid, **metrics}
+        matched.add(fid)
+    result["unmatched"] = [f for f in result["unmatched"] if f not in matched]
 
 
 #: A mean position NEES under half its expected 3 (the sigma more than 1.4 times the RMS
@@ -246,7 +266,8 @@ def format_report(metrics: dict[str, Any]) -> str:
     lines = [f"fused: {metrics.get('fused', '?')}",
              f"truth: {metrics.get('truth', '?')}" + (f" ({_format_text(fmt)})" if fmt else ""),
              head, "-" * len(head)]
-    for tid, m in metrics.get("targets", {}).items():
+    for key, m in metrics.get("targets", {}).items():
+        tid = f"{key}>{m['fused_id']}" if m.get("fused_id") else key
         if not m["n_epochs"]:
             lines.append(f"{tid:<8}{0:>8}  (no fused epoch inside the truth span)")
             continue
@@ -262,6 +283,11 @@ def format_report(metrics: dict[str, Any]) -> str:
                      f"[{lo:.2f}, {hi:.2f}]")
     lines += [_epochs_text(tid, m) for tid, m in metrics.get("targets", {}).items()
               if "n_fused_epochs" in m]
+    matched = [f"{tid} by {m['fused_id']}" for tid, m in metrics.get("targets", {}).items()
+               if m.get("fused_id")]
+    if matched:
+        lines.append("truth objects scored by their best-matching output object "
+                     f"(truth>output): {', '.join(matched)}")
     if fmt and not fmt["velocity"]:
         lines.append("velocity not evaluated: the truth has no ve, vn, vu columns")
     if metrics.get("unmatched"):

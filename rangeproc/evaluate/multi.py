@@ -6,14 +6,18 @@ Positions are in the range ENU frame (m), times in s. Fused object ids need not 
 
 Definitions (K evaluation epochs t_k, M truth objects, N fused objects, cutoff c in m):
 
-- Evaluation epochs: the union of the fused epoch times (times closer than ``EPOCH_TOL_S``
-  merged), with every stretch longer than 1.5 fused periods in which no fused object exists
-  filled at the fused period (the median epoch spacing of the fused objects), so that a dropout
-  of the whole output counts as missed objects. Truth outside the fused output's overall time
-  range [first fused epoch, last fused epoch] is not scored.
+- Evaluation epochs: a fixed grid, the whole multiples of the grid period T (by default the
+  fused output's period: the median epoch spacing of the fused objects) from the first to the
+  last epoch at which any truth object exists (the union of the truth objects' spans). Every
+  epoch of a truth object's span is scored, whether or not anything was written there: an
+  object left unreported for a minute, at the start, in the middle or at the end, loses that
+  minute in coverage and pays c^p / alpha per epoch in GOSPA. Fused output outside the truth
+  objects' overall span is not scored (no truth there).
 - Truth object i exists at t_k when t_k lies inside its sample span [first, last]; its position
   there is linearly interpolated. Fused object j exists at t_k when it has a row with finite
-  e, n, u at t_k.
+  e, n, u at t_k (within ``EPOCH_TOL_S``), or when t_k lies between two of its consecutive rows
+  at most 1.5 T apart (output at other multiples than the grid's: linearly interpolated); a
+  stretch without rows longer than that is a gap, where the object does not exist.
 - Assignment at t_k: the gamma minimising sum_{(i,j) in gamma} min(d_ij, c)^p over the existing
   objects (scipy ``linear_sum_assignment``, d_ij = 3-D Euclidean distance, m); pairs with
   d_ij >= c are dropped (they cost as much as one missed plus one false object).
@@ -89,23 +93,42 @@ def fused_period(t: np.ndarray, ids: np.ndarray) -> float | None:
     return float(np.median(d)) if d.size else None
 
 
-def evaluation_epochs(t: np.ndarray, period: float | None) -> np.ndarray:
-    """Sorted evaluation epochs (K,) s from fused epoch times ``t`` (R,) s: unique times (merged
-    within ``EPOCH_TOL_S``), gaps longer than 1.5 ``period`` filled at about ``period``."""
-    ts = np.unique(t)
-    if ts.size == 0:
-        return ts
-    ts = ts[np.concatenate(([True], np.diff(ts) > EPOCH_TOL_S))]
-    if period is None or ts.size < 2:
-        return ts
-    gap = np.diff(ts)
-    n_ins = np.where(gap > 1.5 * period, np.rint(gap / period).astype(np.int64) - 1, 0)
-    if not n_ins.any():
-        return ts
-    g = np.repeat(np.arange(gap.size), n_ins)                       # gap of each new epoch
-    j = np.arange(g.size) - np.repeat(np.cumsum(n_ins) - n_ins, n_ins) + 1  # 1..n_ins[g]
-    fill = ts[g] + gap[g] * j / (n_ins[g] + 1)
-    return np.sort(np.concatenate((ts, fill)))
+def grid_epochs(start: float, end: float, period: float) -> np.ndarray:
+    """The evaluation grid (K,) s: whole multiples of ``period`` (s) in [start, end] s. A
+    period within 1e-6 (relative) of 1 / n s for a whole n (a median of output steps) is taken
+    as exactly that, so that the grid falls on the output's epochs k / n even at large times."""
+    rate = 1.0 / period
+    n = round(rate)
+    if n >= 1 and abs(rate - n) <= 1e-6 * rate:
+        k0 = math.ceil(start * n - EPOCH_TOL_S * n)
+        k1 = math.floor(end * n + EPOCH_TOL_S * n)
+        return np.arange(k0, k1 + 1, dtype=float) / n
+    k0 = math.ceil((start - EPOCH_TOL_S) / period)
+    k1 = math.floor((end + EPOCH_TOL_S) / period)
+    return np.arange(k0, k1 + 1, dtype=float) * period
+
+
+def fused_on_epochs(t: np.ndarray, pos: np.ndarray, epochs: np.ndarray, period: float
+                    ) -> np.ndarray:
+    """One fused object's positions (R, 3) m at its rows' times ``t`` (R,) s (sorted, unique)
+    on the grid ``epochs`` (K,) s -> (K, 3) m: a row's own value at an epoch it lies on (within
+    ``EPOCH_TOL_S``), else linear interpolation between two consecutive rows at most 1.5
+    ``period`` apart; NaN elsewhere (before, after or inside a gap of its output)."""
+    out = np.full((epochs.size, 3), np.nan)
+    if t.size == 0:
+        return out
+    j = np.searchsorted(t, epochs - EPOCH_TOL_S, side="left")       # first row >= epoch
+    jj = np.minimum(j, t.size - 1)
+    exact = (j < t.size) & (np.abs(t[jj] - epochs) <= EPOCH_TOL_S)
+    out[exact] = pos[jj[exact]]
+    lo = np.maximum(j - 1, 0)
+    between = ~exact & (j > 0) & (j < t.size)
+    between &= (t[jj] - t[lo]) <= 1.5 * period + EPOCH_TOL_S
+    if between.any():
+        ta, tb = t[lo[between]], t[jj[between]]
+        w = ((epochs[between] - ta) / (tb - ta))[:, None]
+        out[between] = (1.0 - w) * pos[lo[between]] + w * pos[jj[between]]
+    return out
 
 
 def truth_on_epochs(t_truth: np.ndarray, pos_truth: np.ndarray, epochs: np.ndarray
@@ -162,13 +185,15 @@ def assign_epochs(truth_pos: np.ndarray, fused_pos: np.ndarray, cutoff: float
 
 def multi_object_metrics(fused_t: np.ndarray, fused_id: np.ndarray, fused_pos: np.ndarray,
                          truth_t: np.ndarray, truth_id: np.ndarray, truth_pos: np.ndarray,
-                         cutoff: float = 50.0, where: str = "fused output"
-                         ) -> MultiObjectEvaluation:
+                         cutoff: float = 50.0, where: str = "fused output",
+                         period: float | None = None) -> MultiObjectEvaluation:
     """Assign fused objects to truth objects at every evaluation epoch and compute GOSPA.
 
     fused_t (R,) s, fused_id (R,) str, fused_pos (R, 3) m: one row per fused object epoch
     (rows with non-finite values are ignored); truth_t (S,) s, truth_id (S,) str, truth_pos
     (S, 3) m: dense truth samples. ``where`` names the fused file in error messages.
+    ``period``: the evaluation grid's period (s); None: the fused output's (module docstring),
+    or the truth's sample spacing when no fused object has two epochs.
     """
     if not (math.isfinite(cutoff) and cutoff > 0):
         raise ValueError(f"cutoff must be a positive number of metres, got {cutoff}")
@@ -178,17 +203,24 @@ def multi_object_metrics(fused_t: np.ndarray, fused_id: np.ndarray, fused_pos: n
     truth_t, truth_id, truth_pos = truth_t[ok], truth_id[ok], truth_pos[ok]
     f_ids, f_idx = np.unique(fused_id, return_inverse=True)
     t_ids, t_idx = np.unique(truth_id, return_inverse=True)
-    epochs = evaluation_epochs(fused_t, fused_period(fused_t, f_idx))
-    k_of_row = np.searchsorted(epochs, fused_t + EPOCH_TOL_S, side="right") - 1
+    order = np.lexsort((fused_t, f_idx))
+    fused_t, f_idx, fused_pos = fused_t[order], f_idx[order], fused_pos[order]
+    same = (np.diff(f_idx) == 0) & (np.diff(fused_t) <= EPOCH_TOL_S)
+    if same.any():
+        r = int(np.flatnonzero(same)[0])
+        raise DataError(f"{where}: column 'time': target {f_ids[f_idx[r]]} has two "
+                        f"rows at time {float(fused_t[r])!r}")
+    if period is None:
+        period = fused_period(fused_t, f_idx) or fused_period(truth_t, t_idx) or 1.0
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period must be a positive number of seconds, got {period}")
+    epochs = (grid_epochs(float(truth_t.min()), float(truth_t.max()), period)
+              if truth_t.size else np.empty(0))
     f_pos = np.full((epochs.size, f_ids.size, 3), np.nan)
-    seen = np.zeros((epochs.size, f_ids.size), dtype=bool)
-    key = np.sort(k_of_row * f_ids.size + f_idx)
-    dup = key[1:][np.diff(key) == 0]
-    if dup.size:
-        raise DataError(f"{where}: column 'time': target {f_ids[dup[0] % f_ids.size]} has two "
-                        f"rows at time {float(epochs[dup[0] // f_ids.size])!r}")
-    f_pos[k_of_row, f_idx] = fused_pos
-    seen[k_of_row, f_idx] = True
+    for j in range(f_ids.size):
+        sel = f_idx == j
+        f_pos[:, j] = fused_on_epochs(fused_t[sel], fused_pos[sel], epochs, period)
+    seen = np.isfinite(f_pos).all(axis=2)
     tr = np.full((epochs.size, t_ids.size, 3), np.nan)
     for i in range(t_ids.size):
         sel = t_idx == i

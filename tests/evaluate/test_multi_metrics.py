@@ -17,7 +17,7 @@ from rangeproc.cli import main
 from rangeproc.errors import DataError
 from rangeproc.evaluate import evaluate_run, format_report
 from rangeproc.evaluate import multi
-from rangeproc.evaluate.multi import evaluation_epochs, multi_object_metrics
+from rangeproc.evaluate.multi import fused_on_epochs, grid_epochs, multi_object_metrics
 
 T0 = 345_600.0
 RATE = 10.0        # fused epochs per second
@@ -70,10 +70,16 @@ def _run(tmp_path, fused_parts, truth, **kw):
 def test_perfect_match_with_other_ids(tmp_path):
     t = _epochs(10, 151)                 # fused covers 1 .. 15 s of the 0 .. 20 s truth
     t3 = t[t >= T0 + 5.0]                # T3 exists from 5 s only
-    truth = pd.concat([_truth(("T1", "T2")), _truth(("T3",), span=(5.0, 20.0))])
+    truth = pd.concat([_truth(("T1", "T2"), span=(1.0, 15.0)),
+                       _truth(("T3",), span=(5.0, 15.0))])
     m = _run(tmp_path, [_follow("O1", "T2", t), _follow("O2", "T1", t),
                         _follow("O3", "T3", t3)], truth)
-    assert m["targets"] == {} and m["unmatched"] == ["O1", "O2", "O3"]  # old keys unchanged
+    # truth ids are scored by their best match: errors, 3-sigma share and NEES under B1 -> O1
+    assert {k: v["fused_id"] for k, v in m["targets"].items()} == {"T1": "O2", "T2": "O1",
+                                                                  "T3": "O3"}
+    assert m["targets"]["T1"]["pos_rmse"] == pytest.approx(0.0, abs=1e-9)
+    assert m["targets"]["T1"]["inside_3sigma_enu"] == [1.0, 1.0, 1.0]
+    assert m["targets"]["T3"]["n_epochs"] == t3.size and m["unmatched"] == []
     mu = m["multi"]
     assert mu["n_epochs"] == t.size and mu["cutoff_m"] == C
     assert mu["gospa"]["mean"] == pytest.approx(0.0, abs=1e-9)
@@ -83,7 +89,7 @@ def test_perfect_match_with_other_ids(tmp_path):
         assert r["best_match"] == fid and r["n_epochs"] == n == r["best_match_epochs"]
         assert r["best_match_rmse"] == pytest.approx(0.0, abs=1e-9)
         assert r["assigned_rmse"] == pytest.approx(0.0, abs=1e-9)
-        assert r["coverage"] == 1.0  # truth outside the fused time range is not scored
+        assert r["coverage"] == 1.0
         assert r["swaps"] == 0 and r["fragmentation"] == 0
         assert mu["fused"][fid] == {"n_epochs": n, "majority_truth": tid, "purity": 1.0,
                                     "false_epochs": 0}
@@ -91,6 +97,7 @@ def test_perfect_match_with_other_ids(tmp_path):
     assert mu["totals"]["swaps"] == 0
     json.dumps(m)
     text = format_report(m)
+    assert any(ln.startswith("T1>O2") for ln in text.splitlines())
     rows = [ln.split() for ln in text.splitlines() if ln.split()[:1] in (["T1"], ["T2"])]
     assert rows == [["T1", "O2", "0.00", "0.00", "0.00", "1.000", "0", "0"],
                     ["T2", "O1", "0.00", "0.00", "0.00", "1.000", "0", "0"]]
@@ -102,7 +109,7 @@ def test_identity_swap(tmp_path):
     first = np.arange(t.size) < 60       # A follows T1 for 60 epochs, then T2; B the reverse
     a = np.where(first[:, None], _pos("T1", t), _pos("T2", t))
     b = np.where(first[:, None], _pos("T2", t), _pos("T1", t))
-    mu = _run(tmp_path, [_fused("A", t, a), _fused("B", t, b)], _truth())["multi"]
+    mu = _run(tmp_path, [_fused("A", t, a), _fused("B", t, b)], _truth(span=(0, 9.9)))["multi"]
     assert mu["gospa"]["max"] == pytest.approx(0.0, abs=1e-9)
     for tid, best in (("T1", "A"), ("T2", "B")):
         r = mu["truth"][tid]
@@ -120,7 +127,7 @@ def test_identity_swap(tmp_path):
 @pytest.mark.parametrize("cutoff", [50.0, 20.0])
 def test_missed_object(tmp_path, cutoff):
     t = _epochs(0, 50)
-    m = _run(tmp_path, [_follow("O1", "T1", t)], _truth(), cutoff=cutoff)
+    m = _run(tmp_path, [_follow("O1", "T1", t)], _truth(span=(0, 4.9)), cutoff=cutoff)
     g = m["multi"]["gospa"]
     # one missed object per epoch: d^2 = c^p / alpha = c^2 / 2
     assert g["missed_mean"] == pytest.approx(cutoff**2 / 2)
@@ -138,12 +145,13 @@ def test_coverage_over_the_observed_span(tmp_path):
     """An object first measured halfway through is covered over the half it was seen."""
     t = _epochs(0, 100)
     late = t[t >= T0 + 5.0]                      # T2 tracked from 5 s on, when first seen
-    m = _run(tmp_path, [_follow("O1", "T1", t), _follow("O2", "T2", late)], _truth(),
+    m = _run(tmp_path, [_follow("O1", "T1", t), _follow("O2", "T2", late)], _truth(span=(0, 9.9)),
              observed={"T2": (T0 + 5.0, T0 + 9.9), "T1": (T0, T0 + 9.9)})
     r2, r1 = m["multi"]["truth"]["T2"], m["multi"]["truth"]["T1"]
     assert r2["coverage"] == pytest.approx(0.5)
     assert r2["coverage_observed"] == 1.0 and r1["coverage_observed"] == 1.0
-    m = _run(tmp_path, [_follow("O1", "T1", t)], _truth(), observed={"T2": (T0, T0 + 2.0)})
+    m = _run(tmp_path, [_follow("O1", "T1", t)], _truth(span=(0, 9.9)),
+             observed={"T2": (T0, T0 + 2.0)})
     assert m["multi"]["truth"]["T2"]["coverage_observed"] == 0.0
     assert m["multi"]["truth"]["T1"]["coverage_observed"] is None     # no span given
 
@@ -151,7 +159,7 @@ def test_coverage_over_the_observed_span(tmp_path):
 def test_false_object(tmp_path):
     t = _epochs(0, 50)
     far = _follow("O9", "T1", t, offset=(0.0, -1000.0, 0.0))
-    m = _run(tmp_path, [_follow("T1", "T1", t), far], _truth(("T1",)))
+    m = _run(tmp_path, [_follow("T1", "T1", t), far], _truth(("T1",), span=(0, 4.9)))
     assert m["targets"]["T1"]["pos_rmse"] == pytest.approx(0.0, abs=1e-9)  # old keys still work
     assert m["unmatched"] == ["O9"]
     mu = m["multi"]
@@ -171,7 +179,7 @@ def test_false_object(tmp_path):
 def test_localisation_and_cutoff(tmp_path, d, cutoff, loc, miss_false):
     t = _epochs(0, 30)
     off = np.array([0.6, 0.0, 0.8]) * d
-    mu = _run(tmp_path, [_follow("O1", "T1", t, off), _follow("O2", "T2", t)], _truth(),
+    mu = _run(tmp_path, [_follow("O1", "T1", t, off), _follow("O2", "T2", t)], _truth(span=(0, 2.9)),
               cutoff=cutoff)["multi"]
     g = mu["gospa"]
     assert g["localisation_mean"] == pytest.approx(loc)
@@ -193,7 +201,8 @@ def test_fragmentation(tmp_path, gap, fragments, other):
     t = _epochs(0, 40)
     keep = (np.arange(40) < 20) | (np.arange(40) >= 20 + gap)
     parts = [_follow("O1", "T1", t[keep])] + ([_follow("O2", "T2", t)] if other else [])
-    mu = _run(tmp_path, parts, _truth(("T1", "T2") if other else ("T1", "T3")))["multi"]
+    mu = _run(tmp_path, parts, _truth(("T1", "T2") if other else ("T1", "T3"),
+                                      span=(0, 3.9)))["multi"]
     r = mu["truth"]["T1"]
     assert mu["n_epochs"] == 40
     assert r["fragmentation"] == fragments and r["swaps"] == 0
@@ -203,11 +212,21 @@ def test_fragmentation(tmp_path, gap, fragments, other):
     assert mu["gospa"]["missed_mean"] == pytest.approx(MISS * missed / 40)
 
 
-def test_evaluation_epochs_merge_and_fill():
-    t = np.array([0.0, 0.1, 0.1 + 1e-9, 0.2, 0.7, 0.8])
-    np.testing.assert_allclose(evaluation_epochs(t, 0.1),
-                               [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], atol=1e-12)
-    np.testing.assert_allclose(evaluation_epochs(t, None), [0.0, 0.1, 0.2, 0.7, 0.8])
+def test_grid_epochs_fall_on_the_output_epochs():
+    g = grid_epochs(T0 + 0.05, T0 + 0.55, 0.1 * (1 + 1e-9))      # a median of output steps
+    np.testing.assert_array_equal(g, (np.round(T0 * 10) + np.arange(1, 6)) / 10)
+    np.testing.assert_allclose(grid_epochs(0.0, 1.0, 0.3), [0.0, 0.3, 0.6, 0.9])
+
+
+def test_fused_on_epochs_interpolates_within_steps_not_across_gaps():
+    t = np.array([0.0, 0.1, 0.2, 0.7, 0.75, 0.8])
+    pos = np.repeat(t[:, None] * 10.0, 3, axis=1)
+    got = fused_on_epochs(t, pos, np.arange(10) / 10.0, 0.1)[:, 0]
+    np.testing.assert_allclose(got[[0, 1, 2, 7, 8]], [0.0, 1.0, 2.0, 7.0, 8.0])
+    assert np.isnan(got[3:7]).all() and np.isnan(got[9])     # a gap, and after the last row
+    mid = fused_on_epochs(np.array([0.0, 0.15]), np.zeros((2, 3)) + [[0.0], [3.0]],
+                          np.array([0.1]), 0.1)
+    np.testing.assert_allclose(mid, [[2.0, 2.0, 2.0]])        # 0.15 s apart: interpolated
 
 
 def test_matches_stone_soup_gospa(monkeypatch):
@@ -277,7 +296,7 @@ def test_cli_multi_table_and_outputs(tmp_path):
     t = _epochs(0, 50)
     pd.concat([_follow("O1", "T2", t, (3.0, 0.0, 0.0)), _follow("O2", "T1", t)]
               ).to_parquet(tmp_path / "fused.parquet")
-    _truth(("T1", "T2", "T3")).to_parquet(tmp_path / "truth.parquet")
+    _truth(("T1", "T2", "T3"), span=(0, 4.9)).to_parquet(tmp_path / "truth.parquet")
     res = CliRunner().invoke(main, ["evaluate", str(tmp_path), str(tmp_path / "truth.parquet"),
                                     "--cutoff", "30"])
     assert res.exit_code == 0, res.output
@@ -296,6 +315,26 @@ def test_cli_multi_table_and_outputs(tmp_path):
     series = pd.read_parquet(tmp_path / "evaluation_gospa.parquet")
     assert len(series) == 50 and series["missed"].to_numpy() == pytest.approx(450.0)
     assert saved["multi"]["gospa"]["series_file"].endswith("evaluation_gospa.parquet")
+
+
+@pytest.mark.parametrize("where", ["start", "middle", "end"])
+def test_a_minute_without_output_is_a_minute_lost(tmp_path, where):
+    """Scores count every epoch of the truth's span: an object left unreported for one minute
+    of a ten-minute span loses that minute in coverage and pays one missed object per epoch in
+    GOSPA, wherever the minute lies (also before the first or after the last fused epoch)."""
+    t = _epochs(0, 6000)                            # 600 s at 10 Hz
+    k = np.arange(t.size)
+    lost = {"start": k < 600, "middle": (k >= 3000) & (k < 3600), "end": k >= 5400}[where]
+    truth = _truth(("T1", "T2"), span=(0.0, 599.9))
+    mu = _run(tmp_path, [_follow("O1", "T1", t[~lost]), _follow("O2", "T2", t)], truth)["multi"]
+    assert mu["n_epochs"] == 6000
+    assert mu["truth"]["T1"]["coverage"] == pytest.approx(0.9)
+    assert mu["truth"]["T2"]["coverage"] == 1.0
+    assert mu["gospa"]["missed_mean"] == pytest.approx(MISS * 0.1)
+    assert mu["truth"]["T1"]["fragmentation"] == (where == "middle")
+    # the negative control: the same output without the gap loses nothing
+    mu = _run(tmp_path, [_follow("O1", "T1", t), _follow("O2", "T2", t)], truth)["multi"]
+    assert mu["truth"]["T1"]["coverage"] == 1.0 and mu["gospa"]["missed_mean"] == 0.0
 
 
 def _cli_error(tmp_path, fused: pd.DataFrame, truth: pd.DataFrame) -> str:
