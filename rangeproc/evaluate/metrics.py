@@ -98,15 +98,20 @@ def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray | None, cov: np.ndarr
     if n == 0:
         return {"n_epochs": 0, "pos_rmse": None, "pos_rmse_enu": None, "pos_p95": None,
                 **_NO_VELOCITY, "inside_3sigma_enu": None, "nees_pos_mean": None,
-                "nees_pos_chi2_95": None}
+                "nees_pos_chi2_95": None, "nees_dof": None}
     pos_norm = np.linalg.norm(pos_err, axis=1)
     sigma = np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    # an axis the output states no variance for at any epoch (a 2-D tracker's sigma_u = 0)
+    # is left out of the NEES, whose degrees of freedom are the other axes
+    axes = np.flatnonzero((sigma > 0).any(axis=0))
+    axes = axes if axes.size else np.arange(3)
+    e, c = pos_err[:, axes], cov[:, axes][:, :, axes]
     try:
-        # NEES_k = e_k^T P_k^-1 e_k (3 dof)
-        nees = np.einsum("ni,ni->n", pos_err, np.linalg.solve(cov, pos_err[:, :, None])[:, :, 0])
+        # NEES_k = e_k^T P_k^-1 e_k (3 dof, or the axes with variance)
+        nees = np.einsum("ni,ni->n", e, np.linalg.solve(c, e[:, :, None])[:, :, 0])
     except np.linalg.LinAlgError as exc:
         raise NumericalError(f"{where}: singular position covariance in fused output") from exc
-    lo, hi = chi2_ppf([0.025, 0.975], 3 * n) / n
+    lo, hi = chi2_ppf([0.025, 0.975], axes.size * n) / n
     return {
         "n_epochs": int(n),
         "pos_rmse": _f(np.sqrt(np.mean(pos_norm**2))),
@@ -116,6 +121,7 @@ def error_metrics(pos_err: np.ndarray, vel_err: np.ndarray | None, cov: np.ndarr
         "inside_3sigma_enu": [_f(x) for x in np.mean(np.abs(pos_err) <= 3 * sigma, axis=0)],
         "nees_pos_mean": _f(np.mean(nees)),
         "nees_pos_chi2_95": [_f(lo), _f(hi)],
+        "nees_dof": int(axes.size),
     }
 
 

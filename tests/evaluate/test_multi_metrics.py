@@ -391,3 +391,18 @@ def test_library_error_is_data_error(tmp_path):
     _follow("O1", "T1", _epochs(0, 3)).to_parquet(tmp_path / "fused.parquet")
     with pytest.raises(DataError, match="truth.csv: no data rows"):
         evaluate_run(tmp_path, tmp_path / "truth.csv")
+
+
+def test_two_dimensional_output_scored_by_best_match(tmp_path):
+    """A 2-D tracker's output (sigma_u = 0 everywhere) matched to truth B1: the NEES is taken
+    over east and north (2 dof) instead of failing on a singular covariance."""
+    t = _epochs(0, 50)
+    f = _follow("S1", "T1", t, (0.5, -0.5, 0.0))
+    f["sigma_u"] = 0.0
+    truth = _truth(("T1", "T2"), span=(0, 4.9))
+    truth["target_id"] = truth["target_id"].map({"T1": "B1", "T2": "B2"})
+    m = _run(tmp_path, [f], truth)
+    b1 = m["targets"]["B1"]
+    assert b1["fused_id"] == "S1" and b1["nees_dof"] == 2
+    assert b1["nees_pos_mean"] == pytest.approx(0.5)          # (0.5^2 + 0.5^2) / 1^2
+    assert "B2" not in m["targets"] and m["unmatched"] == []
