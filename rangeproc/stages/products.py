@@ -17,8 +17,8 @@ from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult
 from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
-from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 
@@ -35,25 +35,6 @@ def _time_span(t: np.ndarray) -> dict[str, float | None]:
     it has none)."""
     return {"t_first": float(t.min()) if t.size else None,
             "t_last": float(t.max()) if t.size else None}
-
-
-def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[dict, dict]:
-    model = int(res.batch.model[res.batch.sensor == index][0])
-    names, units = COMPONENTS[model]
-    noise, bias = {}, {}
-    rows = res.batch.sensor == index
-    for c, (name, unit) in enumerate(zip(names, units)):
-        key = {"e": "horizontal", "n": "horizontal", "u": "vertical", "ve": "velocity",
-               "vn": "velocity", "vu": "velocity"}.get(name, name)
-        if not np.isfinite(res.batch.z[rows, c]).any():
-            continue
-        used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
-        noise[name] = {"unit": unit, "apriori": s.sigma.get(key),
-                       "estimated": res.noise.get((index, c))}
-        bias[name] = {"unit": unit,
-                      "median_residual": float(np.median(res.res[used, c])) if used.any()
-                      else None}
-    return noise, bias
 
 
 def stated_position_sigma(sensors: tuple[SensorSettings, ...] | list[SensorSettings]
@@ -121,22 +102,6 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
                    "n_unstarted": 0, **_time_span(logs[s.id].time)} for s in cfg.sensors}
 
 
-def _count_sensor(ss: dict, result: FusionResult, i: int, r: SensorResiduals,
-                  s: SensorSettings, tid: str) -> None:
-    """Add one object's use of sensor ``i`` to its summary entry ``ss``."""
-    sel = result.batch.sensor == i
-    used_rows = result.used[sel].any(axis=1)
-    measured_rows = result.dof[sel] > 0
-    ss["n_used"] += int(used_rows.sum())
-    ss["n_rejected"] += int((measured_rows & ~used_rows).sum())
-    ss["n_partly_rejected"] = int((used_rows & r.rejected.any(axis=1)).sum())
-    ss["n_components_rejected"] = {
-        name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
-    ss["noise"], ss["bias"] = _noise_summary(s, i, result)
-    ss.setdefault("target", tid)
-    ss.setdefault("targets", []).append(tid)
-
-
 def _target_summary(track: TrackEstimate, result: FusionResult,
                     settings: EstimatorSettings) -> dict:
     """``summary.json``'s entry of one object."""
@@ -170,6 +135,7 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     sensor_ids = tuple(s.id for s in cfg.sensors)
     stated = stated_position_sigma(cfg.sensors)
     tracks, residuals, target_summary = [], [], {}
+    uses: dict[int, list[ObjectUse]] = {}
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
@@ -180,12 +146,15 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
             sid = sensor_ids[i]
             r = sensor_residuals(tid, result, i, cfg.sensors[i].kind)
             residuals.append(r)
-            _count_sensor(sensor_summary[sid], result, i, r, cfg.sensors[i], tid)
-            sensor_summary[sid]["n_no_platform_geometry"] = n_no_platform[sid]
+            uses.setdefault(i, []).append(ObjectUse(tid, result, i, r))
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         target_summary[tid] = _target_summary(track, result, settings)
         tick(1, tid)
+    for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
+        sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))
+    for sid, n in n_no_platform.items():
+        sensor_summary[sid]["n_no_platform_geometry"] = n
     specs = settings.calibration
     for i, sen in enumerate(cfg.sensors):
         if (offset := time_offset_summary(sen)) is not None:
