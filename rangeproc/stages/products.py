@@ -3,8 +3,9 @@ the summary's per-object and per-sensor figures, and the plausibility lines that
 fused result (a sensor far from the others, a stated sigma far from the data)."""
 from __future__ import annotations
 
+import copy
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -13,9 +14,10 @@ from rangeproc.editing.record import EditRecord
 from rangeproc.editing.units import UnitSuspicion, stated_sigma_line
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
+from rangeproc.fusion.agreement import FarSensor, far_line, far_sensors, pair_line
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult
+from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
@@ -60,14 +62,24 @@ def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
     return [[float(t_used[i]), float(t_used[i + 1])] for i in k]
 
 
-def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
-                        suspicions: dict[str, UnitSuspicion]) -> None:
+def report_disagreement(cfg: Config, far_list: list[FarSensor],
+                        suspicions: dict[str, UnitSuspicion],
+                        left_out: Mapping[str, tuple[str, ...]] | None = None) -> None:
     """One line per sensor that does not fit: a sensor whose rows sit far from every other
-    sensor's view (``fusion.agreement``) and whose angles also fit a smaller unit
-    (``editing.units``) cannot be meant so (DataError); either finding alone is a warning, and
-    two sensors that only see each other far away get one line naming both."""
+    sensor's view (``far_list``, ``fusion.agreement``) and whose angles also fit a smaller
+    unit (``editing.units``) cannot be meant so (DataError); either finding alone is a
+    warning, and two sensors that only see each other far away get one line naming both.
+    The line of a sensor whose objects are ``left_out`` (``fusion.isolated``) says so."""
     files = {s.id: s.file.name for s in cfg.sensors}
-    far = {f.sensor_id: f for f in far_sensors(tracks, [s.id for s in cfg.sensors])}
+    far = {f.sensor_id: f for f in far_list}
+    left_out = left_out or {}
+
+    def note(*sids: str) -> str:
+        gone = [oid for sid in sids for oid in left_out.get(sid, ())]
+        if not gone:
+            return ""
+        return (f"; left out of fused.parquet: {', '.join(gone)} (its rows are in "
+                "edits.parquet, reason isolated; [processing] keep_isolated = true keeps it)")
     for sid, f in far.items():
         if sid in suspicions:
             u = suspicions[sid]
@@ -81,10 +93,10 @@ def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
             continue
         mate = far.get(f.others[0]) if len(f.others) == 1 else None
         if mate is not None and mate.others == (sid,):
-            log.warning("%s", pair_line(f, mate, files))
+            log.warning("%s%s", pair_line(f, mate, files), note(sid, mate.sensor_id))
             said.add(mate.sensor_id)
         else:
-            log.warning("%s", far_line(f, files[sid]))
+            log.warning("%s%s", far_line(f, files[sid]), note(sid))
     for sid, u in suspicions.items():
         if sid not in far:
             log.warning("%s", u.text)
@@ -166,11 +178,36 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     return tracks, residuals, target_summary
 
 
-def plausibility(cfg: Config, tracks: list[TrackEstimate], sensor_summary: dict[str, dict],
-                 suspicions: dict[str, UnitSuspicion]) -> None:
-    """The plausibility lines that need the fused result: sensors far from the others (with
-    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show."""
-    report_disagreement(cfg, tracks, suspicions)
+def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
+           settings: EstimatorSettings, sensor_summary: dict[str, dict],
+           n_no_platform: dict[str, int], suspicions: dict[str, UnitSuspicion],
+           logs: Mapping[str, SensorLog], edits: EditRecord,
+           tick: Callable[..., None] = lambda *a, **k: None
+           ) -> tuple[list[tuple[str, FusionResult]], list[TrackEstimate],
+                      list[SensorResiduals], dict[str, dict]]:
+    """:func:`products` and the plausibility lines: the sensors far from the others (with an
+    angle-unit suspicion: exit 2), whose lone objects are left out (``fusion.isolated``)
+    unless ``keep_isolated``, then the stated sigmas far from the noise the data show.
+    Returns the fused objects kept, their tracks, residuals and summary entries; fills
+    ``sensor_summary`` and adds the rows left out to ``edits``."""
+    before = copy.deepcopy(sensor_summary)
+    tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
+                                          n_no_platform, tick)
+    far = far_sensors(tracks, [s.id for s in cfg.sensors])
+    left_out = {} if cfg.processing.keep_isolated else isolated_objects(cfg, far)
+    report_disagreement(cfg, far, suspicions, left_out)
+    if left_out:
+        fused = leave_out(fused, left_out, logs, edits)
+        sensor_summary.clear()
+        sensor_summary.update(before)
+        tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
+                                              n_no_platform)
+    plausibility(cfg, sensor_summary)
+    return fused, tracks, residuals, targets
+
+
+def plausibility(cfg: Config, sensor_summary: dict[str, dict]) -> None:
+    """The lines of stated sigmas far from the noise the data show."""
     for sen in cfg.sensors:
         if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {})):
             log.warning("%s", line)
