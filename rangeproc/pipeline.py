@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 
 import rangeproc
-from rangeproc.config import load_config
+from rangeproc.config import Config, load_config
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.fusion.accounting import accounting_lines, row_accounting, rows_summary
+from rangeproc.fusion.isolated import mark_isolated
 from rangeproc.fusion.edit_audit import edit_summary, rejected_examples
 from rangeproc.fusion.edit_table import edit_table
 from rangeproc.io.writers import file_sha256, write_json
@@ -25,13 +27,17 @@ from rangeproc.run_warnings import collect_warnings
 from rangeproc.stages.assemble import assemble_all, sensor_sites
 from rangeproc.stages.associate import associate
 from rangeproc.stages.fuse import estimator_settings, fuse_objects, target_prior
-from rangeproc.stages.products import plausibility, products, sensor_summaries
+from rangeproc.stages.products import sensor_summaries, settle
 from rangeproc.stages.read import read_all
 from rangeproc.stages.report import draw_figures, write_report_page
 from rangeproc.stages.screen import screen
 from rangeproc.stages.write import check_output_dir, make_output_dir, staged_outputs, write_tables
 from rangeproc.timescale import time_scale
-from rangeproc.tracking.routing import association_summary, association_table
+from rangeproc.tracking.routing import (
+    ASSOCIATED_KINDS,
+    association_summary,
+    association_table,
+)
 
 log = logging.getLogger(__name__)
 
@@ -76,6 +82,24 @@ class RunOutput:
 
 
 
+def without_objects(summary: dict, gone: set[str]) -> dict:
+    """The association summary without the objects left out (``fusion.isolated``)."""
+    if gone and summary.get("objects"):
+        summary["objects"] = {k: v for k, v in summary["objects"].items() if k not in gone}
+    return summary
+
+
+def account(cfg: Config, sensor_summary: dict[str, dict], fates: dict[str, np.ndarray],
+            logs: dict) -> None:
+    """Each sensor's ``rows`` in its summary entry, and the lines of the sensors that lose
+    rows (``fusion.accounting``)."""
+    for s in cfg.sensors:
+        sensor_summary[s.id]["rows"] = rows_summary(
+            fates[s.id], s.platform is not None, s.kind in ASSOCIATED_KINDS)
+    for line in accounting_lines(cfg, fates, logs):
+        log.warning("%s", line)
+
+
 def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutput:
     """Process one flight: read the config and logs, fuse every target, write the outputs.
 
@@ -99,6 +123,7 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
         screened = screen(cfg, raw, tick)
     logs = screened.logs
     sensor_summary = sensor_summaries(cfg, raw, logs, screened.edits)
+    read_rows = {sid: lg.row for sid, lg in raw.items()}
     del raw
     with clock.stage("assemble", sum(s.kind != "ins" for s in cfg.sensors)) as tick:
         rows = assemble_all(cfg, frame, logs, tick)
@@ -113,9 +138,10 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     with clock.stage("fuse", len(parts_of) * (1 + settings.processing.noise_passes)) as tick:
         fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
     with clock.stage("products", len(fused)) as tick:
-        tracks, residuals, target_summary = products(cfg, frame, fused, settings,
-                                                     sensor_summary, n_no_platform, tick)
-    plausibility(cfg, tracks, sensor_summary, screened.unit_suspicions)
+        estimated = [oid for oid, _ in fused]
+        fused, tracks, residuals, target_summary = settle(
+            cfg, frame, fused, settings, sensor_summary, n_no_platform,
+            screened.unit_suspicions, logs, screened.edits, tick)
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")
@@ -134,6 +160,10 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
                 cfg, synthesis, {sid: (lg.row, lg.time) for sid, lg in logs.items()},
                 associated.kept, {sid: lg.n_read for sid, lg in logs.items()},
                 cfg.targets[0].id if synthesis is None else None)
+            association = mark_isolated(association, screened.edits)
+            account(cfg, sensor_summary, row_accounting(
+                cfg, {sid: lg.n_read for sid, lg in logs.items()}, read_rows, logs,
+                screened.edits, associated.kept, association, fused), logs)
         exports: list[Path] = []
 
         def tables() -> None:           # written while the report's child draws its first figures
@@ -150,7 +180,8 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
             "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
                        for s in cfg.sensors},
             "sensors": sensor_summary, "targets": target_summary,
-            "association": association_summary(synthesis, sensor_ids),
+            "association": without_objects(association_summary(synthesis, sensor_ids),
+                                           set(estimated) - set(target_summary)),
             "rejected_points": rejected_examples(edit_rows),
             "warnings": warnings,
             "time_scale": scale.as_dict(),

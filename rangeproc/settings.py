@@ -261,6 +261,11 @@ class ProcessingSettings:
         60.0, doc="A sensor whose rows all lie farther than this from every other sensor's "
         "rows is refused (wrong time scale or time_offset), unless allow_disjoint_time.",
         unit="s", bounds=(0.0, 1e10))
+    keep_isolated: bool = key(
+        False, doc="Keep in fused.parquet the objects of a sensor whose rows sit far from "
+        "every other sensor's view of the objects in the air at the same times (a wrong "
+        "site or unit, warned); otherwise they are left out and their rows recorded in "
+        "edits.parquet with reason isolated.")
     max_speed: float = key(
         2.0e4, doc="Physical speed limit of targets and platforms (range rates, velocities, "
         "jumps between consecutive fixes).", unit="m/s", bounds=(1.0, MAX_SPEED))

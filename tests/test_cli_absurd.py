@@ -87,7 +87,7 @@ def test_every_gps_row_at_one_time(scenario, cli, explain, shift, ok) -> None:
     if ok:                   # inside the others' span: the repeats are edited, the run is clean
         assert res.exit_code == 0, explain(res)
         summary = json.loads((scenario / "out" / "summary.json").read_text())
-        assert summary["sensors"]["G1"]["n_edited"]["time"] == 995
+        assert summary["sensors"]["G1"]["n_edited"]["repeated stamp"] == 995
     else:
         assert res.exit_code == 2, explain(res)
         assert res.stderr.startswith("rangeproc: error: G1.csv: sensor G1 time span")
@@ -133,7 +133,7 @@ def test_mistram_rows_all_at_one_time_run_clean(scenario, cli, explain) -> None:
     res = cli(["run", "--quiet", scenario / CONFIG])
     assert res.exit_code == 0, explain(res)
     summary = json.loads((scenario / "out" / "summary.json").read_text())
-    assert summary["sensors"]["MISTRAM"]["n_edited"]["time"] == 9584 - 4
+    assert summary["sensors"]["MISTRAM"]["n_edited"]["repeated stamp"] == 9584 - 4
 
 
 def _start_run(offset: float, n: int):

@@ -210,7 +210,8 @@ def test_a_key_declared_without_a_meaning_is_reported() -> None:
 @pytest.mark.parametrize(("text", "message"), [
     (BASE + "gate = 0.99\n",
      "sample.toml: processing.gate: unknown key (expected one of: gate_probability, "
-     "noise_passes, adapt_noise, process_noise, filter, max_gap, time_margin, max_speed, "
+     "noise_passes, adapt_noise, process_noise, filter, max_gap, time_margin, keep_isolated, "
+     "max_speed, "
      "max_range, sage_husa_window, sage_husa_mean, maneuver_norm, stukf_forgetting, "
      "stukf_weakening, stukf_ratios, imm_models, imm_sojourn, spline_knot_spacing, "
      "spline_anomaly_probability, calibration, refraction, refractivity, optical_refractivity, "

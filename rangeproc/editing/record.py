@@ -1,11 +1,14 @@
 """The edit record: every measurement component that rangeproc removed before estimation, with
 the reason, so that every decision can be audited and the summary counts agree with it.
 
-Reasons written by the pre-estimation checks (``editing.timecheck``, ``editing.limits``):
+Reasons written by the pre-estimation checks (``editing.repeats``, ``editing.timecheck``,
+``editing.limits``):
 
+* ``duplicate``: a row repeating an earlier file row exactly (``editing.repeats``);
+* ``repeated stamp``: a row with the time stamp of an earlier row of the same measurement
+  series but other values (a stuck clock; ``editing.repeats``);
 * ``time``: a time stamp that cannot be true for this sensor: isolated far outside the sensor's
-  own sequence (a corrupt stamp, a week rollover), outside the representable range, or a
-  repeated stamp of a single-valued sensor (GPS, INS);
+  own sequence (a corrupt stamp, a week rollover) or outside the representable range;
 * ``limit``: a value outside physical limits (range <= 0 or beyond the maximum range, an
   elevation beyond +-90 degrees, a height below the deepest ocean or beyond the maximum, a
   speed or range rate beyond the maximum speed, an attitude angle out of range);

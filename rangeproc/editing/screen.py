@@ -1,7 +1,7 @@
 """Screening stage: every sensor log is checked before anything reaches the estimator.
 
-Order: time stamps (``editing.timecheck``: beyond the representable range, repeated stamps of
-GPS/INS, isolated far stamps), then physical limits and impossible jumps
+Order: duplicate rows and repeated stamps (``editing.repeats``), then time stamps
+(``editing.timecheck``: beyond the representable range, isolated far stamps), then physical limits and impossible jumps
 (``editing.limits``), then the Hampel pre-edit of wild values (``editing.hampel``), then the
 cross-sensor time overlap (a sensor on the wrong time scale is
 refused). Every removed row or component goes into the run's :class:`EditRecord`.
@@ -15,6 +15,7 @@ from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.hampel import pre_edit
 from rangeproc.editing.limits import Limits, apply_limits
 from rangeproc.editing.record import EditRecord
+from rangeproc.editing.repeats import drop_repeats, repeat_lines
 from rangeproc.editing.timecheck import check_overlap, edit_time
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog
@@ -40,7 +41,8 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
 
     def screen_one(s: SensorSettings) -> tuple[SensorLog, EditRecord]:
         own = EditRecord()                      # one per sensor: threads append to their own
-        edited = edit_time(logs[s.id], s, own, max_gap=p.max_gap)
+        edited = drop_repeats(logs[s.id], own)
+        edited = edit_time(edited, s, own, max_gap=p.max_gap)
         edited = apply_limits(edited, s, own, limits)
         return pre_edit(edited, own, half_width=p.hampel_window,
                         threshold=p.hampel_threshold), own
@@ -49,6 +51,8 @@ def screen_logs(cfg: Config, logs: dict[str, SensorLog], record: EditRecord,
     screened = thread_map(screen_one, cfg.sensors, cost=lambda s: len(logs[s.id]))
     for s, (edited, own) in zip(cfg.sensors, screened):   # config order, as one by one
         record.edits.extend(own.edits)
+        for line in repeat_lines(s, own, edited):
+            log.warning("%s", line)
         counts = record.counts(s.id)
         if counts:       # a time edit is rare and worth a word; the rest is in the summary
             (log.warning if "time" in counts else log.info)(

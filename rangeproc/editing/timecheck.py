@@ -9,10 +9,7 @@ time scale, ``time_offset`` applied):
 
 1. stamps beyond ``MAX_ABS_TIME`` are edited (reason ``time``): float seconds cannot resolve
    an output grid there, and no range time scale reaches it (ISO times are about 1.8e9 s);
-2. repeated stamps of one measurement series keep their first row (file order) and the repeats
-   are edited: one GPS receiver or INS cannot be in two places at one instant, one MISTRAM
-   station reports one range rate per instant, one radar/theodolite track (``track_id``) one
-   plot per instant. Plots without ``track_id`` may share a stamp (several objects);
+2. (repeated stamps and duplicate rows are removed before, by ``editing.repeats``);
 3. isolated stamps: the sorted times are cut into clusters wherever a step exceeds
    ``max_gap``; a cluster of at most ``ISOLATED_MAX_ROWS`` rows that holds less than
    ``ISOLATED_MAX_FRACTION`` of the sensor's rows is edited (it lies more than ``max_gap`` from
@@ -70,38 +67,9 @@ def isolated_stamps(time: np.ndarray, max_gap: float) -> np.ndarray:
     return out
 
 
-def repeated_stamps(time: np.ndarray, row: np.ndarray,
-                    series: np.ndarray | None = None) -> np.ndarray:
-    """(N,) bool: every row whose stamp an earlier file row of the same series already has.
-
-    ``series``: (N,) int64 series label (MISTRAM station, track id), None = one series; rows
-    labelled -1 (plots) are never repeats.
-    """
-    out = np.zeros(time.size, dtype=bool)
-    if time.size < 2:
-        return out
-    key = np.zeros(time.size, dtype=np.int64) if series is None else series
-    order = np.lexsort((row, time, key))            # by series, time, then file order
-    ks, ts = key[order], time[order]
-    same = np.zeros(time.size, dtype=bool)
-    same[1:] = (ts[1:] == ts[:-1]) & (ks[1:] == ks[:-1]) & (ks[1:] >= 0)
-    out[order[same]] = True
-    return out
-
-
-def _series(log: SensorLog) -> np.ndarray | None | bool:
-    """The series labels of a sensor for :func:`repeated_stamps`, or False when repeated
-    stamps are legitimate (radar/theodolite plots without track ids)."""
-    if log.kind in ("gps", "ins"):
-        return None
-    if log.kind == "mistram":
-        return log.station
-    return log.track_id if log.track_id is not None else False
-
-
 def edit_time(log: SensorLog, settings: SensorSettings, record: EditRecord, *,
               max_gap: float) -> SensorLog:
-    """Apply rules 1-3 of the module docstring to one sensor; returns the edited log.
+    """Apply rules 1 and 3 of the module docstring to one sensor; returns the edited log.
 
     Raises:
         DataError: every row of the sensor has an impossible time stamp.
@@ -115,9 +83,6 @@ def edit_time(log: SensorLog, settings: SensorSettings, record: EditRecord, *,
                         f"and every other time stamp lie beyond +-{MAX_ABS_TIME:g} s"
                         f"{subunit_hint(log.time - settings.time_offset)}")
     log = _edit(log, far, record)
-    series = _series(log)
-    if series is not False:
-        log = _edit(log, repeated_stamps(log.time, log.row, series), record)
     return _edit(log, isolated_stamps(log.time, max_gap), record)
 
 

@@ -130,11 +130,30 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
                            *(_calibration_cell(name, c)
                              for name, c in (s.get("calibration") or {}).items())])
         rows.append([esc(sid), esc(s.get("kind", "")), esc(s.get("n_read", s.get("n_rows", "–"))),
-                     esc(s.get("n_used", "–")), _rejected_cell(s, edited),
+                     esc(s.get("n_used", "–")), _rows_lost_cell(s), _rejected_cell(s, edited),
                      _down_weighted_cell(s), noise or "–", cal or "–"])
-    return html_table(["sensor", "kind", "rows read", "used", "rejected points",
-                       "down-weighted (expected if Gaussian)", "noise 1σ: a priori → estimated",
-                       "calibration (± 1σ)"], rows, {2, 3, 4, 5})
+    return html_table(["sensor", "kind", "rows read", "used", "rows not used (by reason)",
+                       "rejected points", "down-weighted (expected if Gaussian)",
+                       "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows,
+                      {2, 3, 4, 5, 6})
+
+
+def _rows_lost_cell(s: Mapping[str, Any]) -> str:
+    """The sensor's rows that no object used, per reason (``summary.json``'s ``rows``,
+    ``fusion.accounting``): rejected, without platform geometry, not associated, not
+    started, nothing measured; "–" when every row was used."""
+    r = s.get("rows")
+    if not r:
+        return "–"
+    lost = {**(r.get("rejected") or {}),
+            "no platform geometry": r.get("no_platform_geometry") or 0,
+            **(r.get("not_associated") or {}), "not started": r.get("not_started") or 0,
+            "nothing measured": r.get("no_measurement") or 0}
+    lost = {k: v for k, v in lost.items() if v}
+    if not lost:
+        return "–"
+    why = "<br>".join(f"{esc(v)} {esc(k)}" for k, v in sorted(lost.items(), key=lambda kv: -kv[1]))
+    return f"{esc(sum(lost.values()))}<br><small>{why}</small>"
 
 
 def _rejected_cell(s: Mapping[str, Any], edited: int) -> str:

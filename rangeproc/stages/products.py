@@ -3,8 +3,9 @@ the summary's per-object and per-sensor figures, and the plausibility lines that
 fused result (a sensor far from the others, a stated sigma far from the data)."""
 from __future__ import annotations
 
+import copy
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -13,12 +14,13 @@ from rangeproc.editing.record import EditRecord
 from rangeproc.editing.units import UnitSuspicion, stated_sigma_line
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
+from rangeproc.fusion.agreement import FarSensor, far_line, far_sensors, pair_line
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult
+from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
-from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
 
@@ -35,25 +37,6 @@ def _time_span(t: np.ndarray) -> dict[str, float | None]:
     it has none)."""
     return {"t_first": float(t.min()) if t.size else None,
             "t_last": float(t.max()) if t.size else None}
-
-
-def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[dict, dict]:
-    model = int(res.batch.model[res.batch.sensor == index][0])
-    names, units = COMPONENTS[model]
-    noise, bias = {}, {}
-    rows = res.batch.sensor == index
-    for c, (name, unit) in enumerate(zip(names, units)):
-        key = {"e": "horizontal", "n": "horizontal", "u": "vertical", "ve": "velocity",
-               "vn": "velocity", "vu": "velocity"}.get(name, name)
-        if not np.isfinite(res.batch.z[rows, c]).any():
-            continue
-        used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
-        noise[name] = {"unit": unit, "apriori": s.sigma.get(key),
-                       "estimated": res.noise.get((index, c))}
-        bias[name] = {"unit": unit,
-                      "median_residual": float(np.median(res.res[used, c])) if used.any()
-                      else None}
-    return noise, bias
 
 
 def stated_position_sigma(sensors: tuple[SensorSettings, ...] | list[SensorSettings]
@@ -79,14 +62,24 @@ def _gaps(t_used: np.ndarray, min_gap: float) -> list[list[float]]:
     return [[float(t_used[i]), float(t_used[i + 1])] for i in k]
 
 
-def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
-                        suspicions: dict[str, UnitSuspicion]) -> None:
+def report_disagreement(cfg: Config, far_list: list[FarSensor],
+                        suspicions: dict[str, UnitSuspicion],
+                        left_out: Mapping[str, tuple[str, ...]] | None = None) -> None:
     """One line per sensor that does not fit: a sensor whose rows sit far from every other
-    sensor's view (``fusion.agreement``) and whose angles also fit a smaller unit
-    (``editing.units``) cannot be meant so (DataError); either finding alone is a warning, and
-    two sensors that only see each other far away get one line naming both."""
+    sensor's view (``far_list``, ``fusion.agreement``) and whose angles also fit a smaller
+    unit (``editing.units``) cannot be meant so (DataError); either finding alone is a
+    warning, and two sensors that only see each other far away get one line naming both.
+    The line of a sensor whose objects are ``left_out`` (``fusion.isolated``) says so."""
     files = {s.id: s.file.name for s in cfg.sensors}
-    far = {f.sensor_id: f for f in far_sensors(tracks, [s.id for s in cfg.sensors])}
+    far = {f.sensor_id: f for f in far_list}
+    left_out = left_out or {}
+
+    def note(*sids: str) -> str:
+        gone = [oid for sid in sids for oid in left_out.get(sid, ())]
+        if not gone:
+            return ""
+        return (f"; left out of fused.parquet: {', '.join(gone)} (its rows are in "
+                "edits.parquet, reason isolated; [processing] keep_isolated = true keeps it)")
     for sid, f in far.items():
         if sid in suspicions:
             u = suspicions[sid]
@@ -100,10 +93,10 @@ def report_disagreement(cfg: Config, tracks: list[TrackEstimate],
             continue
         mate = far.get(f.others[0]) if len(f.others) == 1 else None
         if mate is not None and mate.others == (sid,):
-            log.warning("%s", pair_line(f, mate, files))
+            log.warning("%s%s", pair_line(f, mate, files), note(sid, mate.sensor_id))
             said.add(mate.sensor_id)
         else:
-            log.warning("%s", far_line(f, files[sid]))
+            log.warning("%s%s", far_line(f, files[sid]), note(sid))
     for sid, u in suspicions.items():
         if sid not in far:
             log.warning("%s", u.text)
@@ -119,22 +112,6 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
                    "n_rejected": 0, "n_no_platform_geometry": 0,
                    "n_edited": edits.counts(s.id), "edit_examples": edits.examples(s.id),
                    "n_unstarted": 0, **_time_span(logs[s.id].time)} for s in cfg.sensors}
-
-
-def _count_sensor(ss: dict, result: FusionResult, i: int, r: SensorResiduals,
-                  s: SensorSettings, tid: str) -> None:
-    """Add one object's use of sensor ``i`` to its summary entry ``ss``."""
-    sel = result.batch.sensor == i
-    used_rows = result.used[sel].any(axis=1)
-    measured_rows = result.dof[sel] > 0
-    ss["n_used"] += int(used_rows.sum())
-    ss["n_rejected"] += int((measured_rows & ~used_rows).sum())
-    ss["n_partly_rejected"] = int((used_rows & r.rejected.any(axis=1)).sum())
-    ss["n_components_rejected"] = {
-        name: int(r.rejected[:, j].sum()) for j, name in enumerate(r.components)}
-    ss["noise"], ss["bias"] = _noise_summary(s, i, result)
-    ss.setdefault("target", tid)
-    ss.setdefault("targets", []).append(tid)
 
 
 def _target_summary(track: TrackEstimate, result: FusionResult,
@@ -170,6 +147,7 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     sensor_ids = tuple(s.id for s in cfg.sensors)
     stated = stated_position_sigma(cfg.sensors)
     tracks, residuals, target_summary = [], [], {}
+    uses: dict[int, list[ObjectUse]] = {}
     for tid, result in fused:
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
@@ -180,12 +158,15 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
             sid = sensor_ids[i]
             r = sensor_residuals(tid, result, i, cfg.sensors[i].kind)
             residuals.append(r)
-            _count_sensor(sensor_summary[sid], result, i, r, cfg.sensors[i], tid)
-            sensor_summary[sid]["n_no_platform_geometry"] = n_no_platform[sid]
+            uses.setdefault(i, []).append(ObjectUse(tid, result, i, r))
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         target_summary[tid] = _target_summary(track, result, settings)
         tick(1, tid)
+    for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
+        sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))
+    for sid, n in n_no_platform.items():
+        sensor_summary[sid]["n_no_platform_geometry"] = n
     specs = settings.calibration
     for i, sen in enumerate(cfg.sensors):
         if (offset := time_offset_summary(sen)) is not None:
@@ -197,11 +178,36 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     return tracks, residuals, target_summary
 
 
-def plausibility(cfg: Config, tracks: list[TrackEstimate], sensor_summary: dict[str, dict],
-                 suspicions: dict[str, UnitSuspicion]) -> None:
-    """The plausibility lines that need the fused result: sensors far from the others (with
-    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show."""
-    report_disagreement(cfg, tracks, suspicions)
+def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
+           settings: EstimatorSettings, sensor_summary: dict[str, dict],
+           n_no_platform: dict[str, int], suspicions: dict[str, UnitSuspicion],
+           logs: Mapping[str, SensorLog], edits: EditRecord,
+           tick: Callable[..., None] = lambda *a, **k: None
+           ) -> tuple[list[tuple[str, FusionResult]], list[TrackEstimate],
+                      list[SensorResiduals], dict[str, dict]]:
+    """:func:`products` and the plausibility lines: the sensors far from the others (with an
+    angle-unit suspicion: exit 2), whose lone objects are left out (``fusion.isolated``)
+    unless ``keep_isolated``, then the stated sigmas far from the noise the data show.
+    Returns the fused objects kept, their tracks, residuals and summary entries; fills
+    ``sensor_summary`` and adds the rows left out to ``edits``."""
+    before = copy.deepcopy(sensor_summary)
+    tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
+                                          n_no_platform, tick)
+    far = far_sensors(tracks, [s.id for s in cfg.sensors])
+    left_out = {} if cfg.processing.keep_isolated else isolated_objects(cfg, far)
+    report_disagreement(cfg, far, suspicions, left_out)
+    if left_out:
+        fused = leave_out(fused, left_out, logs, edits)
+        sensor_summary.clear()
+        sensor_summary.update(before)
+        tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
+                                              n_no_platform)
+    plausibility(cfg, sensor_summary)
+    return fused, tracks, residuals, targets
+
+
+def plausibility(cfg: Config, sensor_summary: dict[str, dict]) -> None:
+    """The lines of stated sigmas far from the noise the data show."""
     for sen in cfg.sensors:
         if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {})):
             log.warning("%s", line)

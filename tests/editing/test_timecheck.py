@@ -14,8 +14,8 @@ from rangeproc.editing.timecheck import (
     check_overlap,
     edit_time,
     isolated_stamps,
-    repeated_stamps,
 )
+from rangeproc.editing.repeats import drop_repeats, repeated_stamps
 from rangeproc.errors import DataError
 from rangeproc.io.logs import SensorLog
 
@@ -63,13 +63,21 @@ def test_edit_time_records_reason_time_and_keeps_the_rest() -> None:
     assert rec.examples("R1")[0]["row"] == t.size
 
 
-def test_gps_repeated_stamps_are_edited_radar_ones_are_not() -> None:
+def test_gps_repeated_stamps_are_edited_radar_plots_are_not() -> None:
     t = np.repeat(np.arange(0.0, 10.0), 2)
     rec = EditRecord()
-    gps = edit_time(make_log("G1", "gps", t), settings("G1", "gps"), rec, max_gap=60.0)
-    radar = edit_time(make_log("R1", "radar", t), settings("R1"), rec, max_gap=60.0)
+    gps = drop_repeats(_varied(make_log("G1", "gps", t)), rec)
+    radar = drop_repeats(_varied(make_log("R1", "radar", t)), rec)
     assert len(gps) == 10 and len(radar) == 20
-    assert rec.counts("G1") == {"time": 10} and rec.counts("R1") == {}
+    assert rec.counts("G1") == {"repeated stamp": 10} and rec.counts("R1") == {}
+
+
+def _varied(log: SensorLog) -> SensorLog:
+    """``log`` with a different range in every row (no row duplicates another)."""
+    cols = {"range": 1000.0 + np.arange(len(log), dtype=float)}
+    return SensorLog(sensor_id=log.sensor_id, kind=log.kind, time=log.time,
+                     columns=MappingProxyType(cols), row=log.row, track_id=log.track_id,
+                     station=log.station, n_read=log.n_read)
 
 
 def test_every_stamp_beyond_the_representable_range_is_refused() -> None:
@@ -124,6 +132,6 @@ def test_mistram_rows_all_at_one_time_keep_one_per_station() -> None:
     log = SensorLog(sensor_id="M", kind="mistram", time=log.time, columns=log.columns,
                     row=log.row, track_id=None, station=np.arange(n) % 4, n_read=n)
     rec = EditRecord()
-    out = edit_time(log, settings("M", "mistram"), rec, max_gap=60.0)
+    out = drop_repeats(_varied(log), rec)
     assert sorted(out.station.tolist()) == [0, 1, 2, 3]
-    assert rec.counts("M") == {"time": n - 4}
+    assert rec.counts("M") == {"repeated stamp": n - 4}

@@ -1,0 +1,116 @@
+"""How the fused objects used one sensor's rows: ``summary.json``'s per-sensor counts, noise and
+bias, over every object the sensor's rows went to.
+
+A sensor that sees several objects contributes to each object's fusion, and each fusion
+estimates the sensor's noise from its own residuals. The summary gives the sensor's totals
+(row and component counts summed over the objects) and one noise and bias per component,
+combined over the objects:
+
+* ``noise.<component>.estimated``: the pooled sigma ``sqrt(sum_k n_k s_k^2 / sum_k n_k)`` of the
+  objects' estimates ``s_k`` weighted by the used components ``n_k`` of each (the root mean
+  square over all used rows when each object's estimate is its rows' RMS);
+* ``bias.<component>.median_residual``: the median of the used residuals of every object
+  together.
+
+With more than one object, ``by_object`` gives each object's own rows used, noise estimate and
+median residual per component, so that a sensor whose noise differs between objects (one
+near, one far) can be read object by object.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rangeproc.config import SensorSettings
+from rangeproc.fusion.centralised import FusionResult
+from rangeproc.models.measurement import COMPONENTS
+from rangeproc.results import SensorResiduals
+
+#: Summary noise key of each measured component (its a-priori sigma's name in the config).
+SIGMA_KEY = {"e": "horizontal", "n": "horizontal", "u": "vertical", "ve": "velocity",
+             "vn": "velocity", "vu": "velocity"}
+
+
+@dataclass(frozen=True, slots=True)
+class ObjectUse:
+    """Object ``target_id``'s fusion ``result``, in which the sensor is ``index``, and that
+    sensor's residuals in it."""
+
+    target_id: str
+    result: FusionResult
+    index: int
+    residuals: SensorResiduals
+
+
+def _component_stats(use: ObjectUse) -> dict[str, tuple[str, float | None, np.ndarray]]:
+    """Per measured component of the sensor in one object: (unit, estimated sigma or None,
+    the used residuals (K,))."""
+    res, i = use.result, use.index
+    rows = res.batch.sensor == i
+    model = int(res.batch.model[rows][0])
+    names, units = COMPONENTS[model]
+    out = {}
+    for c, (name, unit) in enumerate(zip(names, units)):
+        if not np.isfinite(res.batch.z[rows, c]).any():
+            continue
+        used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
+        out[name] = (unit, res.noise.get((i, c)), res.res[used, c])
+    return out
+
+
+def _pooled(parts: Sequence[tuple[float | None, np.ndarray]]) -> float | None:
+    """sqrt(sum n s^2 / sum n) over (sigma s, residuals of n rows); None without any."""
+    n = np.array([r.size for s, r in parts if s is not None and np.isfinite(s)], float)
+    s = np.array([s for s, _ in parts if s is not None and np.isfinite(s)], float)
+    if s.size == 0:
+        return None
+    if s.size == 1:
+        return float(s[0])
+    if n.sum() == 0:
+        return float(np.sqrt(np.mean(s ** 2)))
+    return float(np.sqrt(np.sum(n * s ** 2) / n.sum()))
+
+
+def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:
+    """The summary entries of sensor ``s`` from its uses by the objects (in output order):
+    ``n_used``, ``n_rejected`` (rows measured but with no component used), ``n_partly_rejected``
+    (rows used with a component rejected), ``n_components_rejected`` (per component), ``noise``,
+    ``bias`` (module docstring), ``target`` (the first object), ``targets`` and, with several
+    objects, ``by_object``."""
+    n_used = n_rejected = n_partly = 0
+    comp_rejected: dict[str, int] = {}
+    stats = []
+    for u in uses:
+        sel = u.result.batch.sensor == u.index
+        used_rows = u.result.used[sel].any(axis=1)
+        measured = u.result.dof[sel] > 0
+        n_used += int(used_rows.sum())
+        n_rejected += int((measured & ~used_rows).sum())
+        n_partly += int((used_rows & u.residuals.rejected.any(axis=1)).sum())
+        for j, name in enumerate(u.residuals.components):
+            comp_rejected[name] = comp_rejected.get(name, 0) + int(u.residuals.rejected[:, j].sum())
+        stats.append(_component_stats(u))
+    noise: dict[str, dict] = {}
+    bias: dict[str, dict] = {}
+    for name in dict.fromkeys(n for st in stats for n in st):
+        parts = [st[name] for st in stats if name in st]
+        unit = parts[0][0]
+        pooled = np.concatenate([p[2] for p in parts])
+        noise[name] = {"unit": unit, "apriori": s.sigma.get(SIGMA_KEY.get(name, name)),
+                       "estimated": _pooled([(p[1], p[2]) for p in parts])}
+        bias[name] = {"unit": unit,
+                      "median_residual": float(np.median(pooled)) if pooled.size else None}
+    out = {"n_used": n_used, "n_rejected": n_rejected, "n_partly_rejected": n_partly,
+           "n_components_rejected": comp_rejected, "noise": noise, "bias": bias,
+           "target": uses[0].target_id, "targets": [u.target_id for u in uses]}
+    if len(uses) > 1:
+        out["by_object"] = {
+            u.target_id: {
+                "n_used": int(u.result.used[u.result.batch.sensor == u.index].any(axis=1).sum()),
+                "noise": {name: v[1] for name, v in st.items()},
+                "median_residual": {name: float(np.median(v[2])) if v[2].size else None
+                                    for name, v in st.items()}}
+            for u, st in zip(uses, stats)}
+    return out
