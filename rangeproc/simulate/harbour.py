@@ -43,9 +43,11 @@ Stated sigmas: each radar, lidar and camera's range and azimuth sigma in ``scena
 is its residuals' robust spread (1.4826 x MAD) against the true antenna track, at the file's
 time stamps, from the ferry's true pose (as a user calibrates a sensor against GNSS), over
 the rows of every object. Elevation cells are empty; the stated elevation sigma is, as in the
-recordings' conversion, 2 deg for the radar and lidar and the azimuth's for a camera. A sensor that saw no object keeps its generator sigma. Nothing
-models occlusion, multipath or wakes. Randomness: ``default_rng(seed).spawn(3)``: geometry,
-paths (one stream per object, the ferry last), sensors (one per sensor in config order).
+recordings' conversion, 2 deg for the radar and lidar and the azimuth's for a camera. A
+sensor that saw no object keeps its generator sigma. Nothing models occlusion, multipath or
+wakes, and tracks do not avoid each other: a ferry whose track crosses a hull sees nothing of
+it while inside. Randomness: ``default_rng(seed).spawn(3)``: geometry, paths (one stream per
+object, the ferry last), sensors (one per sensor in config order).
 """
 from __future__ import annotations
 

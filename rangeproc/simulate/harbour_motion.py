@@ -168,6 +168,26 @@ def hull_corners(c: np.ndarray, psi: np.ndarray, length: float, beam: float) -> 
     return c[:, None, :] + np.stack([body_to_enu(psi, b) for b in body], axis=1)
 
 
+def _sides(corners: np.ndarray, sensor: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sides a[k] -> a[k] + edge[k] (M, 4, 2) of hulls (corners (M, 4, 2), clockwise), their
+    unit outward normals (M, 4, 2) and whether each faces the sensor (M, 4) bool (the sensor
+    (M, 2) lies on its outer side)."""
+    a = corners
+    edge = np.roll(corners, -1, axis=1) - a
+    normal = np.stack((-edge[..., 1], edge[..., 0]), axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    facing = np.einsum("mkj,mkj->mk", sensor[:, None, :] - (a + 0.5 * edge), normal) > 0
+    return a, edge, normal, facing
+
+
+def outside(corners: np.ndarray, sensor: np.ndarray) -> np.ndarray:
+    """(M,) bool: the sensor (M, 2) m lies outside the hull (corners (M, 4, 2)), so some side
+    faces it. Tracks do not avoid each other: a ferry crossing a hull sees nothing of it
+    while inside."""
+    return _sides(corners, sensor)[3].any(axis=1)
+
+
 def visible_points(rng: np.random.Generator, corners: np.ndarray, sensor: np.ndarray,
                    count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return points on the hull sides facing the sensor.
@@ -175,22 +195,18 @@ def visible_points(rng: np.random.Generator, corners: np.ndarray, sensor: np.nda
     corners (M, 4, 2) m (:func:`hull_corners`), sensor (M, 2) m, count (M,) returns per hull.
     A side is visible when the sensor lies on its outer side; a return picks a visible side
     with probability proportional to its width across the line of sight (side length x
-    |outward normal . unit towards the sensor|), then a uniform point along it. Returns the
-    points (sum(count), 2) m and the index of the hull of each (sum(count),)."""
-    a = corners
-    b = np.roll(corners, -1, axis=1)                       # sides a[k] -> b[k]
-    edge = b - a
-    normal = np.stack((-edge[..., 1], edge[..., 0]), axis=-1)   # outward (corners clockwise)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    mid = 0.5 * (a + b)
-    to_s = sensor[:, None, :] - mid
-    facing = np.einsum("mkj,mkj->mk", to_s, normal)
+    |outward normal . unit towards the sensor|), then a uniform point along it. A hull with
+    the sensor inside gives none. Returns the points (N, 2) m and the index of the hull of
+    each (N,)."""
+    a, edge, normal, facing = _sides(corners, sensor)
     u = sensor - corners.mean(axis=1)
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     width = np.linalg.norm(edge, axis=-1) * np.abs(np.einsum("mkj,mj->mk", normal, u))
-    w = np.where(facing > 0, width, 0.0)
-    w /= w.sum(axis=1, keepdims=True)
-    hull = np.repeat(np.arange(corners.shape[0]), count)
+    w = np.where(facing, width, 0.0)
+    total = w.sum(axis=1, keepdims=True)
+    seen = total[:, 0] > 0
+    w = np.where(seen[:, None], w / np.where(seen[:, None], total, 1.0), 0.0)
+    hull = np.repeat(np.arange(corners.shape[0]), np.where(seen, count, 0))
     cum = np.cumsum(w[hull], axis=1)
     side = np.minimum((rng.random(hull.size)[:, None] > cum).sum(axis=1), 3)
     frac = rng.random(hull.size)

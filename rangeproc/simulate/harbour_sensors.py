@@ -26,7 +26,7 @@ import pymap3d as pm
 from scipy.signal import lfilter
 
 from rangeproc.simulate import sensors as sn
-from rangeproc.simulate.harbour_motion import (Hull, Quay, SurfacePath, body_to_enu,
+from rangeproc.simulate.harbour_motion import (Hull, Quay, SurfacePath, body_to_enu, outside,
                                                silhouette_bearing, visible_points)
 
 DEG = math.pi / 180.0
@@ -270,7 +270,8 @@ def camera_table(spec: Camera, w: World, timing: np.random.Generator,
         centre = silhouette_bearing(bear)
         err = ar1(nz, f.size, spec.sigma, spec.rho) if noise else np.zeros(f.size)
         dist = np.linalg.norm(corners.mean(axis=1) - s_xy, axis=1)
-        det = (dist <= spec.r_max) & (timing.random(f.size) < spec.pd)
+        det = ((dist <= spec.r_max) & (timing.random(f.size) < spec.pd)
+               & outside(corners, s_xy))
         times.append(f[det])
         az.append(np.mod(centre + err, 2 * math.pi)[det])
         obj.append(np.full(int(det.sum()), j))

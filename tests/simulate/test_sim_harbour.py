@@ -368,3 +368,16 @@ def test_bad_n_objects(tmp_path):
     with pytest.raises(ConfigError, match="n_objects=5"):
         simulate_multi(tmp_path / "x", kind="harbour", seed=1, duration=60.0, n_objects=5)
     assert not (tmp_path / "x").exists()
+
+
+def test_visible_points_unit():
+    """Dead ahead only the bow is seen; abeam only one long side; from inside nothing."""
+    from rangeproc.simulate.harbour_motion import hull_corners, visible_points
+    rng = np.random.default_rng(1)
+    corners = hull_corners(np.zeros((3, 2)), np.zeros(3), 20.0, 6.0)   # heading north
+    sensor = np.array([[0.0, 100.0], [100.0, 0.0], [1.0, 2.0]])       # ahead, abeam, inside
+    pts, hull = visible_points(rng, corners, sensor, np.array([50, 50, 50]))
+    assert np.bincount(hull, minlength=3).tolist() == [50, 50, 0]
+    np.testing.assert_allclose(pts[hull == 0, 1], 10.0)                # the bow, n = L/2
+    assert np.ptp(pts[hull == 0, 0]) > 4.0
+    np.testing.assert_allclose(pts[hull == 1, 0], 3.0)                 # starboard, e = B/2
