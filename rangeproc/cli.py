@@ -273,7 +273,9 @@ def plan_cmd(config: Path, trajectory: Path, seed: int, quiet: bool) -> None:
                    "each object revisited every 2 s), merged-feed (one plot file of two "
                    "rotating radars at different sites), mixed or scale (the several-objects "
                    "benchmark: 10 objects, SR1, tracking radars R1-R3, GPS on four; e.g. "
-                   "--duration 1800). "
+                   "--duration 1800) or harbour (a ferry's radar, lidar and cameras among "
+                   "boats with extended hulls, a ship leaving a quay, moored boats, quays and "
+                   "sea clutter, written like the Autoferry recordings). "
                    "Objects with GPS are declared "
                    "targets, the others are not; also writes truth_association.csv and "
                    "truth_events.json. Not combined with --sensors, --rate-scale, --faults.")

@@ -23,9 +23,12 @@ several-objects benchmark scenario (``make bench``; run it with ``duration=1800`
 surveillance radar SR1 (a scan every 4 s, 20 clutter plots per scan), three fixed tracking
 radars R1, R2, R3, each with two tracks at a time that may be handed over to another object
 mid-flight (so each radar follows 2-4 objects), and GPS on exactly four objects (T1..T4; the
-others U1.. are undeclared).
+others U1.. are undeclared); ``harbour`` (3-4) a ferry's scanning radar, lidar and cameras
+among a boat, a ship leaving a quay and moored boats with extended hulls, quays and sea
+clutter, written like the Autoferry recordings (:mod:`rangeproc.simulate.harbour`: no GPS,
+no R1, sensors on the ferry's INS platform; its own truth columns and files).
 
-Every kind has GPS on some objects only, a fixed tracking radar R1 (20 Hz per track, with
+Every kind but ``harbour`` has GPS on some objects only, a fixed tracking radar R1 (20 Hz per track, with
 track_id), missed detections, noise, wild points and empty cells as in the single-object
 scenario, and one sensor with a known latency (``time_offset``). Randomness:
 ``default_rng(seed).spawn(3)``: geometry, flights (one stream per object), sensors (one stream
@@ -52,6 +55,7 @@ from rangeproc.simulate.multi_files import (TRUTH_ASSOCIATION, TRUTH_EVENTS, Mul
                                              association_table, config_text, events_json,
                                              truth_table)
 from rangeproc.simulate.files import atomic_write_table, atomic_write_text
+from rangeproc.simulate.harbour import simulate_harbour
 from rangeproc.simulate.scenario import (_ARCSEC, _ISO_EPOCH, _MRAD, LATENCY, _geo_at, _polar,
                                          _r, draw_ship)
 from rangeproc.simulate.trajectory import Trajectory, plan_trajectory
@@ -62,7 +66,7 @@ log = logging.getLogger(__name__)
 KINDS: dict[str, tuple[int, int]] = {
     "crossing": (2, 3), "formation": (2, 4), "lock-jump": (2, 3), "operator-switch": (2, 3),
     "surveillance": (3, 5), "phased-array": (3, 5), "merged-feed": (3, 5), "mixed": (2, 5),
-    "scale": (5, 20)}
+    "scale": (5, 20), "harbour": (3, 4)}
 #: kind -> object count when ``n_objects`` is not given (other kinds: drawn within KINDS)
 DEFAULT_OBJECTS: dict[str, int] = {"scale": 10}
 SCALE_GPS = 4  #: objects carrying GPS in kind ``scale``
@@ -390,8 +394,12 @@ def check_request(kind: str, duration: float, n_objects: int | None) -> None:
 
 def draw_multi(kind: str, seed: int, duration: float, n_objects: int | None = None
                ) -> MultiScenario:
-    """Draw scenario ``kind`` for ``seed``: objects, their ids, sensors and events."""
+    """Draw scenario ``kind`` for ``seed``: objects, their ids, sensors and events (not
+    ``harbour``: :func:`rangeproc.simulate.harbour.draw_harbour` draws that scene)."""
     check_request(kind, duration, n_objects)
+    if kind not in DRAWERS:
+        raise ConfigError(f"simulate: objects={kind!r}: drawn by its own module "
+                          "(rangeproc.simulate.harbour.draw_harbour)")
     g, g_flights, _ = np.random.default_rng(seed).spawn(3)
     origin = sn.Geo(round(float((1.0 if g.random() < 0.5 else -1.0) * g.uniform(20, 60)), 6),
                     round(float(g.uniform(-180, 180)), 6), round(float(g.uniform(0, 300)), 1))
@@ -507,8 +515,13 @@ def simulate_multi(out_dir: Path, *, kind: str, seed: int, duration: float = 120
     wild points, empty cells or clutter-free changes: clutter, missed detections and gaps are
     kept) for tests.
     Writes the sensor files, scenario.toml, truth.csv, truth_association.csv and
-    truth_events.json. A sensor that sees nothing (no rows) is left out.
+    truth_events.json. A sensor that sees nothing (no rows) is left out. Kind ``harbour``:
+    :func:`rangeproc.simulate.harbour.simulate_harbour` (also truth_platform.csv).
     """
+    if kind == "harbour":
+        check_request(kind, duration, n_objects)
+        return simulate_harbour(Path(out_dir), seed=int(seed), duration=float(duration),
+                                n_objects=n_objects, noise=noise)
     sc = draw_multi(kind, int(seed), float(duration), n_objects)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -32,7 +32,8 @@ from geo_oracle import ecef, enu_basis
 
 DUR, SEEDS = 90.0, (3, 4)  # odd seeds: GPS seconds of week; even: ISO GPS stamps
 TO_RAD = {"deg": math.pi / 180.0, "rad": 1.0, "mil": 2.0 * math.pi / 6400.0}
-KINDS = [k for k in MULTI_KINDS if k != "scale"]  # scale: test_simulate_scale.py
+KINDS = [k for k in MULTI_KINDS if k not in ("scale", "harbour")]  # test_simulate_scale.py,
+# test_sim_harbour.py
 PLOT_SENSORS = ("SR1", "PA1", "PF1")  # plots: no track_id (surveillance, phased array, feed)
 
 
