@@ -10,7 +10,7 @@ import numpy as np
 
 from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.record import EditRecord
-from rangeproc.editing.units import UnitSuspicion, stated_sigma_line
+from rangeproc.editing.units import UnitSuspicion, absent_columns, stated_sigma_line
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.agreement import far_line, far_sensors, pair_line
@@ -198,10 +198,12 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
 
 
 def plausibility(cfg: Config, tracks: list[TrackEstimate], sensor_summary: dict[str, dict],
-                 suspicions: dict[str, UnitSuspicion]) -> None:
+                 suspicions: dict[str, UnitSuspicion], logs: dict[str, SensorLog]) -> None:
     """The plausibility lines that need the fused result: sensors far from the others (with
-    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show."""
+    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show (of
+    the components each sensor's file measures: ``logs``, the screened logs by id)."""
     report_disagreement(cfg, tracks, suspicions)
     for sen in cfg.sensors:
-        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {})):
+        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {},
+                                      absent_columns(logs[sen.id]))):
             log.warning("%s", line)
