@@ -22,6 +22,7 @@ import click
 from rangeproc import __version__
 from rangeproc.errors import (ConfigError, DataError, NumericalError, OutputError,
                               RangeprocError, write_failure)
+from rangeproc.run_warnings import NOTE
 
 EXIT_INPUT = 2
 EXIT_NUMERICAL = 3
@@ -40,7 +41,7 @@ class DeferredLog(logging.Handler):
     error line (the error says what failed; ``--debug`` streams every line as it comes)."""
 
     def __init__(self) -> None:
-        super().__init__(logging.WARNING)
+        super().__init__(NOTE)
         self.setFormatter(logging.Formatter("rangeproc: %(levelname)s: %(message)s"))
         self.lines: list[str] = []
 
@@ -110,7 +111,7 @@ class DebugStream(logging.StreamHandler):  # type: ignore[type-arg]
 
 def configure_logging(debug: bool) -> None:
     """Debug: every line to stderr as it comes (:class:`DebugStream`), level DEBUG; else
-    WARNING lines held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
+    WARNING lines and notes (``run_warnings.NOTE``) held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
     earlier in-process invocation, or the group before its command's ``--debug``) added."""
     root = logging.getLogger()
     for handler in [h for h in root.handlers if isinstance(h, (DeferredLog, DebugStream))]:
@@ -119,7 +120,7 @@ def configure_logging(debug: bool) -> None:
         root.setLevel(logging.DEBUG)
         root.addHandler(DebugStream())
     else:
-        root.setLevel(logging.WARNING)
+        root.setLevel(NOTE)
         root.addHandler(DeferredLog())
     for noisy in ("numba", "matplotlib", "PIL"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
