@@ -115,7 +115,7 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     with clock.stage("products", len(fused)) as tick:
         tracks, residuals, target_summary = products(cfg, frame, fused, settings,
                                                      sensor_summary, n_no_platform, tick)
-    plausibility(cfg, tracks, sensor_summary, screened.unit_suspicions, logs)
+    plausibility(cfg, tracks, fused, screened.unit_suspicions, logs)
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")

@@ -56,6 +56,35 @@ def _noise_summary(s: SensorSettings, index: int, res: FusionResult) -> tuple[di
     return noise, bias
 
 
+def pooled_noise(s: SensorSettings, index: int, fused: list[tuple[str, FusionResult]]
+                 ) -> dict[str, dict]:
+    """Sensor ``index``'s noise estimate per component pooled over every object it sees
+    (``summary.json``'s ``noise`` layout: unit, a-priori and estimated sigma, SI): the root of
+    the objects' estimated variances weighted by the rows each used. A sensor whose rows fit
+    one object's track closely (the rows that carry it) and another's loosely is judged on
+    all its rows, not on the last object's."""
+    pooled: dict[str, dict] = {}
+    weight: dict[str, float] = {}
+    for _, result in fused:
+        rows = result.batch.sensor == index
+        if not rows.any():
+            continue
+        noise, _ = _noise_summary(s, index, result)
+        names = COMPONENTS[int(result.batch.model[rows][0])][0]
+        for name, entry in noise.items():
+            c = names.index(name)
+            n = int((rows & result.used[:, c] & np.isfinite(result.res[:, c])).sum())
+            est = entry["estimated"]
+            out = pooled.setdefault(name, {**entry, "estimated": None})
+            if est is None or not np.isfinite(est) or n == 0:
+                continue
+            total = weight.get(name, 0.0)
+            sq = (out["estimated"] or 0.0) ** 2 * total + est ** 2 * n
+            weight[name] = total + n
+            out["estimated"] = float(np.sqrt(sq / weight[name]))
+    return pooled
+
+
 def stated_position_sigma(sensors: tuple[SensorSettings, ...] | list[SensorSettings]
                           ) -> np.ndarray:
     """(S, 3) each sensor's stated sigma (SI) of its first three measured components in the
@@ -197,13 +226,15 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     return tracks, residuals, target_summary
 
 
-def plausibility(cfg: Config, tracks: list[TrackEstimate], sensor_summary: dict[str, dict],
-                 suspicions: dict[str, UnitSuspicion], logs: dict[str, SensorLog]) -> None:
+def plausibility(cfg: Config, tracks: list[TrackEstimate],
+                 fused: list[tuple[str, FusionResult]], suspicions: dict[str, UnitSuspicion],
+                 logs: dict[str, SensorLog]) -> None:
     """The plausibility lines that need the fused result: sensors far from the others (with
-    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show (of
-    the components each sensor's file measures: ``logs``, the screened logs by id)."""
+    an angle-unit suspicion: exit 2) and stated sigmas far from the noise the data show
+    (:func:`pooled_noise` over every object, of the components each sensor's file measures:
+    ``logs``, the screened logs by id)."""
     report_disagreement(cfg, tracks, suspicions)
-    for sen in cfg.sensors:
-        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {},
+    for i, sen in enumerate(cfg.sensors):
+        if (line := stated_sigma_line(sen, pooled_noise(sen, i, fused),
                                       absent_columns(logs[sen.id]))):
             log.warning("%s", line)

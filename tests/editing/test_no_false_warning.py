@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pymap3d
+import pytest
 
 from conftest import describe, invoke
 from rangeproc.config import SensorSettings
@@ -144,3 +145,35 @@ def test_the_sample_runs_without_a_warning(sample_run):
     assert "WARNING" not in sample_run.result.stderr, sample_run.result.stderr
     summary = json.loads((sample_run.out_dir / "summary.json").read_text())
     assert summary["warnings"] == []
+
+
+def _result(n_rows: int, sigma: float):
+    """A stand-in fused object of one theodolite (sensor 0): ``n_rows`` azimuth rows used,
+    estimated azimuth noise ``sigma`` (rad)."""
+    from types import SimpleNamespace
+
+    from rangeproc.models.measurement import SPHERICAL
+
+    z = np.full((n_rows, 6), np.nan)
+    z[:, 1] = 0.5
+    used = np.zeros((n_rows, 6), dtype=bool)
+    used[:, 1] = True
+    res = np.where(used, 0.001, np.nan)
+    batch = SimpleNamespace(sensor=np.zeros(n_rows, dtype=np.int64),
+                            model=np.full(n_rows, SPHERICAL), z=z)
+    return SimpleNamespace(batch=batch, used=used, res=res, noise={(0, 1): sigma})
+
+
+def test_a_sensor_is_judged_on_the_noise_of_all_its_rows():
+    """A camera whose rows carry one object's track alone (tiny residuals) and fit another
+    loosely: the stated sigma is judged on the pooled estimate, not on the last object's."""
+    from rangeproc.stages.products import pooled_noise
+
+    s = SensorSettings(id="IR", kind="theodolite", file=Path("IR.csv"), angle_unit="deg",
+                       platform="FERRY", sigma={"azimuth": math.radians(3.0)})
+    fused = [("T1", _result(300, 0.009)), ("O1", _result(100, 0.0028))]
+    noise = pooled_noise(s, 0, fused)
+    want = math.sqrt((300 * 0.009 ** 2 + 100 * 0.0028 ** 2) / 400)
+    assert noise["azimuth"]["estimated"] == pytest.approx(want, rel=1e-12)
+    assert stated_sigma_line(s, noise) is None                      # 6.8x: within 10x
+    assert stated_sigma_line(s, pooled_noise(s, 0, fused[1:])) is not None   # 19x alone
