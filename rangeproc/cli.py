@@ -221,7 +221,7 @@ def main(debug: bool) -> None:
 @debug_option
 @library_errors
 def run_cmd(config: Path, quiet: bool) -> None:
-    """Process one flight described by CONFIG (TOML, see DATA_CONTRACT.md).
+    """Process one flight described by CONFIG (TOML, see docs/contract.md).
 
     Writes fused.parquet, summary.json and report/*.png into the config's [output].dir, then
     (unless --quiet) a headline: each object's epochs, span and 1-sigma position uncertainty,
