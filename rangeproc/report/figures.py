@@ -99,7 +99,7 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
         jobs.append((name, lambda v=view: plot_residuals(v, t0, rejected_points(v, edits))))
     jobs.append(("consistency.png", lambda: plot_consistency(views, t0)))
-    jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0)))
+    jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0, edits)))
     if association is not None and len(association):
         jobs.append(("objects.png", lambda: plot_object_timeline(association, tracks, t0)))
         jobs.append(("plan.png", lambda: plot_plan(
