@@ -8,11 +8,12 @@ unexpected.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -21,6 +22,7 @@ import click
 from rangeproc import __version__
 from rangeproc.errors import (ConfigError, DataError, NumericalError, OutputError,
                               RangeprocError, write_failure)
+from rangeproc.run_warnings import NOTE
 
 EXIT_INPUT = 2
 EXIT_NUMERICAL = 3
@@ -39,7 +41,7 @@ class DeferredLog(logging.Handler):
     error line (the error says what failed; ``--debug`` streams every line as it comes)."""
 
     def __init__(self) -> None:
-        super().__init__(logging.WARNING)
+        super().__init__(NOTE)
         self.setFormatter(logging.Formatter("rangeproc: %(levelname)s: %(message)s"))
         self.lines: list[str] = []
 
@@ -109,7 +111,7 @@ class DebugStream(logging.StreamHandler):  # type: ignore[type-arg]
 
 def configure_logging(debug: bool) -> None:
     """Debug: every line to stderr as it comes (:class:`DebugStream`), level DEBUG; else
-    WARNING lines held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
+    WARNING lines and notes (``run_warnings.NOTE``) held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
     earlier in-process invocation, or the group before its command's ``--debug``) added."""
     root = logging.getLogger()
     for handler in [h for h in root.handlers if isinstance(h, (DeferredLog, DebugStream))]:
@@ -118,7 +120,7 @@ def configure_logging(debug: bool) -> None:
         root.setLevel(logging.DEBUG)
         root.addHandler(DebugStream())
     else:
-        root.setLevel(logging.WARNING)
+        root.setLevel(NOTE)
         root.addHandler(DeferredLog())
     for noisy in ("numba", "matplotlib", "PIL"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
@@ -138,7 +140,8 @@ def debug_option(func: Callable[..., Any]) -> Callable[..., Any]:
 def quiet_option(func: Callable[..., Any]) -> Callable[..., Any]:
     """Shared ``--quiet`` option: no progress output."""
     return click.option("--quiet", "-q", is_flag=True,
-                        help="No progress output (also silent when stderr is not a terminal).")(
+                        help="No progress output and no first-run compiling notice (progress "
+                             "bars are also left out when stderr is not a terminal).")(
         func)
 
 
@@ -174,15 +177,29 @@ class TerminalBars:
 
 
 def _clock(quiet: bool) -> Any:
-    """The run's stage clock: progress bars on a terminal (and one line when kernels are
-    compiled for their first run), silent under ``--quiet`` or when stderr is no terminal."""
-    from rangeproc.kernel_cache import announce_compilation
+    """The run's stage clock: progress bars on a terminal, silent under ``--quiet`` or when
+    stderr is no terminal."""
     from rangeproc.progress import StageClock
 
     if quiet or not sys.stderr.isatty():
         return StageClock()
-    announce_compilation(lambda line: click.echo(f"\r\033[Krangeproc: {line}", err=True))
     return StageClock(display=TerminalBars())
+
+
+@contextlib.contextmanager
+def compile_notice(quiet: bool) -> Iterator[None]:
+    """While the command runs: one line on stderr the first time a kernel is compiled rather
+    than loaded (the first run of an installation waits a minute or more for it), whatever
+    stderr is (a terminal, a pipe under make or CI, a notebook's capture); on a terminal it
+    first clears the progress bar's line. Nothing under ``--quiet``."""
+    if quiet:
+        yield
+        return
+    from rangeproc.kernel_cache import compilation_announced
+
+    clear = "\r\033[K" if sys.stderr.isatty() else ""
+    with compilation_announced(lambda line: click.echo(f"{clear}rangeproc: {line}", err=True)):
+        yield
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -204,7 +221,7 @@ def main(debug: bool) -> None:
 @debug_option
 @library_errors
 def run_cmd(config: Path, quiet: bool) -> None:
-    """Process one flight described by CONFIG (TOML, see DATA_CONTRACT.md).
+    """Process one flight described by CONFIG (TOML, see docs/contract.md).
 
     Writes fused.parquet, summary.json and report/*.png into the config's [output].dir, then
     (unless --quiet) a headline: each object's epochs, span and 1-sigma position uncertainty,
@@ -216,7 +233,8 @@ def run_cmd(config: Path, quiet: bool) -> None:
     from rangeproc.pipeline import run
     from rangeproc.report.headline import headline
 
-    out = run(config, clock=_clock(quiet))
+    with compile_notice(quiet):
+        out = run(config, clock=_clock(quiet))
     if not quiet:
         click.echo(f"wrote {len(out.written)} files to {out.out_dir}")
         page = next((p for p in out.written if p.name == "index.html"), None)
@@ -245,7 +263,8 @@ def plan_cmd(config: Path, trajectory: Path, seed: int, quiet: bool) -> None:
     """
     from rangeproc.planning.plan import format_plan, run_plan
 
-    out = run_plan(config, trajectory, seed=seed)
+    with compile_notice(quiet):
+        out = run_plan(config, trajectory, seed=seed)
     if not quiet:
         for line in format_plan(out):
             click.echo(line)
@@ -416,7 +435,7 @@ def campaign_cmd(campaign: Path, scheduler: str | None, workers: int | None, for
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers: must be at least 1, got {workers}")
     clock = _clock(quiet)
-    with clock.stage("campaign", len(spec.sorties)) as tick:
+    with compile_notice(quiet), clock.stage("campaign", len(spec.sorties)) as tick:
         result = run_campaign(spec, scheduler=scheduler, workers=workers, resume=not force,
                               tick=tick)
     counts = result.counts()

@@ -14,7 +14,7 @@ The folder is ``<base>/kernels-<key>``, with ``<base>`` the first of:
 kernel module) points numba there, marks the folder as used, and removes the folders of other
 keys under the same base that no run has used for two weeks (:data:`UNUSED_S`).
 :func:`announce_compilation` prints one line when the first kernel of a run is compiled
-rather than loaded.
+rather than loaded (:func:`compilation_announced`: while a command runs).
 """
 from __future__ import annotations
 
@@ -24,7 +24,8 @@ import re
 import shutil
 import sys
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 
 #: Environment variable naming the base folder of the kernel cache.
@@ -186,3 +187,17 @@ def announce_compilation(say: Callable[[str], None]) -> object:
     listener = _Once()
     event.register("numba:compile", listener)
     return listener
+
+
+@contextmanager
+def compilation_announced(say: Callable[[str], None]) -> Iterator[None]:
+    """:func:`announce_compilation` for the duration of the ``with`` block: ``say`` is
+    called at most once, and the listener is removed afterwards (a later command in the same
+    process announces its own first compilation, and no stale ``say`` is left behind)."""
+    from numba.core import event
+
+    listener = announce_compilation(say)
+    try:
+        yield
+    finally:
+        event.unregister("numba:compile", listener)

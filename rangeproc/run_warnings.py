@@ -13,6 +13,12 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+#: Level of a note: a fact about a valid input said once on stderr (a CSV file read in
+#: another dialect than the contract's), between INFO and WARNING; not a warning, so not
+#: collected by :func:`collect_warnings` nor counted in the run's warnings.
+NOTE = 25
+logging.addLevelName(NOTE, "note")
+
 
 class _Collector(logging.Handler):
     def __init__(self, owner: int) -> None:

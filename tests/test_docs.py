@@ -200,6 +200,95 @@ def test_every_config_key_is_documented() -> None:
         assert not missing, f"{cls.__name__}: keys not in docs/config.md: {missing}"
 
 
+CONTRACT = DOCS / "contract.md"
+
+
+def contract_keys() -> dict[str, set[str]]:
+    """The config keys docs/contract.md names, by dotted table path ("sensors",
+    "sensors.site", "processing"): the keys of its section 3 TOML example, and of its table
+    of keys rangeproc adds (the key of ``key = ...``, or every backticked name of a
+    section's row)."""
+    import tomllib
+
+    text = section_of_heading(CONTRACT, "3. Config (TOML)")
+    block = re.search(r"```toml\n(.*?)```", text, re.S)
+    assert block, "docs/contract.md section 3: no TOML example"
+    found: dict[str, set[str]] = {}
+
+    def walk(path: str, table: dict) -> None:
+        for key, value in table.items():
+            here = f"{path}.{key}" if path else key
+            if path:
+                found.setdefault(path, set()).add(key)
+            for sub in (value if isinstance(value, list) else [value]):
+                if isinstance(sub, dict):
+                    walk(here, sub)
+
+    walk("", tomllib.loads(block.group(1)))
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.split("|")]
+        if len(cells) < 4 or not cells[1].startswith("`["):
+            continue
+        path = cells[1].strip("`[]")
+        keys = found.setdefault(path, set())
+        if cells[2].startswith("`"):
+            keys.add(cells[2].strip("`").split("=")[0].strip())
+        else:
+            keys.update(re.findall(r"`([a-z_]+)`", cells[2]))
+    return found
+
+
+def section_of_heading(path: Path, heading: str) -> str:
+    """The level-2 section of ``path`` headed exactly ``heading``."""
+    return sections(path)[heading]
+
+
+def reference_paths(heading: str) -> list[str]:
+    """``config_reference`` heading -> dotted table paths: "[[sensors]]" -> ["sensors"],
+    "`[range] origin`, `[[sensors]] site`" -> ["range.origin", "sensors.site"]."""
+    out = []
+    for part in heading.replace("`", "").split(", "):
+        table, *sub = part.split(" ")
+        out.append(".".join([table.strip("[]"), *sub]))
+    return out
+
+
+def test_the_contract_page_names_every_key_of_the_reference() -> None:
+    """docs/contract.md, the page a user writes a config from, names every key the config
+    reference (the settings' declarations, ``config_reference.tables``) lists, in its
+    table: a key added to the settings and left off the page fails here."""
+    from rangeproc.config_reference import tables
+
+    named = contract_keys()
+    for heading, _, rows in tables():
+        for path in reference_paths(heading):
+            missing = sorted({r.key for r in rows} - named.get(path, set()))
+            assert not missing, f"docs/contract.md, {path}: keys not named: {missing}"
+
+
+def test_the_contract_key_check_sees_a_missing_key(monkeypatch, tmp_path: Path) -> None:
+    """Negative control: the page without its rate_hz row fails the check."""
+    page = tmp_path / "contract.md"
+    page.write_text("\n".join(line for line in CONTRACT.read_text().splitlines()
+                               if "`rate_hz = 20.0`" not in line))
+    monkeypatch.setattr(sys.modules[__name__], "CONTRACT", page)
+    with pytest.raises(AssertionError, match=r"sensors: keys not named: \['rate_hz'\]"):
+        test_the_contract_page_names_every_key_of_the_reference()
+
+
+def test_help_texts_name_files_that_exist() -> None:
+    """A help text that points to a document (``docs/contract.md``, ``README.md``) points to
+    one in the repository: `rangeproc run --help` named a DATA_CONTRACT.md that is not there.
+    (Example paths such as ``flights/f101.toml`` are not pointers.)"""
+    texts = [main.help or ""] + [c.help or "" for _, c in cli_commands()]
+    texts += [p.help or "" for _, c in cli_commands() for p in c.params
+              if isinstance(p, click.Option)]
+    named = {m for t in texts for m in re.findall(r"[\w./-]+\.md\b", t)}
+    assert "docs/contract.md" in named
+    for name in named:
+        assert (REPO / name).is_file(), f"a help text names {name}, not in the repository"
+
+
 # ------------------------------------------------------------------------------ the README
 README = REPO / "README.md"
 

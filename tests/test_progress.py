@@ -1,7 +1,11 @@
-"""Stage timing and the terminal progress display."""
+"""Stage timing, the terminal progress display and the first-run compiling notice."""
 import time
 
-from rangeproc.cli import TerminalBars, _clock
+import pytest
+from click.testing import CliRunner
+
+from rangeproc.cli import TerminalBars, _clock, main
+from rangeproc.errors import DataError
 from rangeproc.progress import SilentDisplay, StageClock
 
 
@@ -44,3 +48,53 @@ def test_terminal_bars_draw_one_line_per_stage(capsys):
 def test_quiet_or_not_a_terminal_is_silent():
     assert isinstance(_clock(True).display, SilentDisplay)
     assert isinstance(_clock(False).display, SilentDisplay)   # pytest's stderr is not a TTY
+
+
+def _compiling_run(*args, **kwargs):  # type: ignore[no-untyped-def]
+    """Stands in for ``pipeline.run``: compiles two fresh kernels (as a first run does)."""
+    import numpy as np
+    from numba import njit
+
+    @njit
+    def twice(x):  # type: ignore[no-untyped-def]
+        return 2.0 * x
+
+    @njit
+    def thrice(x):  # type: ignore[no-untyped-def]
+        return 3.0 * x
+
+    assert twice(np.float64(1.0)) == 2.0 and thrice(np.float64(1.0)) == 3.0
+    raise DataError("x.csv: stop here")
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_the_first_compilation_is_said_once_on_a_stderr_that_is_no_terminal(monkeypatch,
+                                                                           quiet):
+    """CliRunner's stderr is no terminal (as under make, CI or a notebook): the notice comes
+    once, as a plain line (no terminal control codes), before the command's own lines;
+    nothing under --quiet."""
+    import rangeproc.pipeline
+
+    monkeypatch.setattr(rangeproc.pipeline, "run", _compiling_run)
+    res = CliRunner().invoke(main, ["run", "flight.toml", *(["--quiet"] if quiet else [])])
+    assert res.exit_code == 2
+    lines = res.stderr.splitlines()
+    notices = [ln for ln in lines if "compiling the filter kernels" in ln]
+    if quiet:
+        assert notices == [] and lines == ["rangeproc: error: x.csv: stop here"]
+        return
+    assert len(notices) == 1, res.stderr
+    assert notices[0].startswith("rangeproc: compiling the filter kernels for their first run")
+    assert "\033" not in res.stderr and "\r" not in res.stderr
+    assert lines[-1] == "rangeproc: error: x.csv: stop here"
+
+
+def test_the_notice_listener_is_removed_after_the_command(monkeypatch):
+    """A second command in the same process says it again for its own first compilation,
+    and no listener of an earlier command is left behind to say it twice."""
+    import rangeproc.pipeline
+
+    monkeypatch.setattr(rangeproc.pipeline, "run", _compiling_run)
+    for _ in range(2):
+        res = CliRunner().invoke(main, ["run", "flight.toml"])
+        assert res.stderr.count("compiling the filter kernels") == 1, res.stderr

@@ -15,15 +15,19 @@ each with :data:`TOLERANCE` of the circle for noise. Two verdicts follow (:func:
   be meant so; :class:`~rangeproc.errors.DataError` naming the file, the column, the values and
   the unit they fit.
 * **suspect**: every angle of the sensor also fits a smaller unit (radians in a degree file,
-  degrees in a mil file) and at least :data:`MIN_VALUES` values were measured: possible (a
-  target that stays within 6 degrees of north, low on the horizon) but unlikely; a one-line
+  degrees in a mil file) and at least :data:`MIN_VALUES` non-zero values were measured:
+  possible (a target that stays within 6 degrees of north, low on the horizon) but unlikely;
+  a one-line
   :class:`UnitSuspicion` that the pipeline reports, joined with the geometry check of
   ``fusion.sensor_geometry`` when the sensor's rows also sit far from the other sensors'.
+  A zero is zero in every unit, so zeros are no evidence: an INS whose attitude is all zero
+  (a platform whose rows are already north-referenced and level, as in converted plot data)
+  is not suspected, and a column of zeros is left out of the suspicion's line.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,7 +110,8 @@ def _check_swapped(found: dict[str, tuple[np.ndarray, bool]], unit: str, name: s
 def angle_unit_check(log: SensorLog, s: SensorSettings) -> UnitSuspicion | None:
     """Check the angle columns of one sensor's log against its ``angle_unit``.
 
-    Returns a :class:`UnitSuspicion` when every angle also fits a smaller unit, else None.
+    Returns a :class:`UnitSuspicion` when every non-zero angle (at least :data:`MIN_VALUES`
+    of them) also fits a smaller unit, else None.
 
     Raises:
         DataError: a column whose values mostly cannot be in the configured unit, naming the
@@ -129,7 +134,8 @@ def angle_unit_check(log: SensorLog, s: SensorSettings) -> UnitSuspicion | None:
                 f"{s.file.name}: column '{name}': {np.mean(~_fits(v, unit, circular)):.0%} of "
                 f"the values lie outside what angle_unit = \"{unit}\" allows (values in "
                 f"{_range_text(v)}){hint}")
-    measured = {name: vc for name, vc in found.items() if vc[0].size}
+    # a zero fits every unit: only non-zero values say anything about the unit
+    measured = {name: (v[v != 0.0], c) for name, (v, c) in found.items() if (v != 0.0).any()}
     if not measured or sum(v.size for v, _ in measured.values()) < MIN_VALUES:
         return None
     smaller = BY_SIZE[:BY_SIZE.index(unit)]
@@ -165,13 +171,25 @@ def angle_unit_checks(sensors: Sequence[SensorSettings], logs: Mapping[str, Sens
 SIGMA_RATIO = 10.0
 
 
-def stated_sigma_line(s: SensorSettings, noise: Mapping[str, Mapping]) -> str | None:
+def absent_columns(log: SensorLog) -> frozenset[str]:
+    """The measurement columns of ``log`` that hold no value at all (absent from the file or
+    empty in every row): a sensor states nothing about them, whatever rows the estimator
+    makes in their place (a 2-D radar's elevation 0, ``fusion.assemble``)."""
+    return frozenset(name for name, v in log.columns.items() if not np.isfinite(v).any())
+
+
+def stated_sigma_line(s: SensorSettings, noise: Mapping[str, Mapping],
+                      absent: Collection[str] = ()) -> str | None:
     """One line when a stated a-priori sigma of sensor ``s`` is more than
     :data:`SIGMA_RATIO` times larger or smaller than the noise estimated from its residuals
     (``noise``: ``summary.json``'s ``sensors.<id>.noise``, SI), shown in the sensor's units;
-    None when every stated sigma is plausible."""
+    None when every stated sigma is plausible. Components in ``absent`` (columns the file
+    does not measure, :func:`absent_columns`) are not checked: their stated sigma is not
+    used, and their residuals are not the sensor's."""
     off = []
     for name, n in noise.items():
+        if name in absent:
+            continue
         stated, found = n.get("apriori"), n.get("estimated")
         if not stated or not found or not np.isfinite(found) or found <= 0.0:
             continue

@@ -4,6 +4,9 @@ The format is chosen by the file extension (``.csv``/``.txt`` CSV with a header 
 ``.parquet``/``.pq`` Parquet). Only the contract's columns are loaded (others are never
 parsed); header names must match exactly, apart from surrounding whitespace.
 
+CSV dialect: the column separator (comma, semicolon or tab) and decimal mark are sniffed
+(``io.dialect``); a dialect other than the contract's is said once, as a note.
+
 CSV fast path: pyarrow.csv with explicit float64 types for every numeric column (including
 ``time``); only when that fails are the columns re-read as text and converted here, which
 locates the first offending cell (and accepts ISO-8601 times and whitespace-only cells).
@@ -16,7 +19,6 @@ row/column, e.g. ``R1.csv: row 17, column 'range': 'abc' is not a number``.
 """
 from __future__ import annotations
 
-import csv
 import logging
 from collections.abc import Mapping
 from pathlib import Path
@@ -30,8 +32,10 @@ import pyarrow.parquet as pq
 
 from rangeproc.config import ANGLE_COMPONENTS, ANGLE_TO_RADIANS, SensorSettings
 from rangeproc.errors import DataError
+from rangeproc.io.dialect import SEPARATORS, sniff_dialect
 from rangeproc.io.logs import SensorLog
 from rangeproc.io.timeparse import CellError, clean_strings, time_to_seconds, to_float
+from rangeproc.run_warnings import NOTE
 
 log = logging.getLogger(__name__)
 
@@ -130,19 +134,6 @@ def _select(name: str, header: list[str], wanted: Mapping[str, bool]) -> dict[st
 # CSV
 # --------------------------------------------------------------------------------------------
 
-def _csv_header(path: Path) -> list[str]:
-    try:
-        with path.open("r", encoding="utf-8-sig", newline="") as fh:
-            header = next(csv.reader(fh), None)
-    except UnicodeDecodeError:
-        raise DataError(f"{path.name}: header row is not UTF-8 text") from None
-    except csv.Error as exc:
-        raise DataError(f"{path.name}: cannot parse the header row ({exc})") from None
-    if not header or not any(h.strip() for h in header):
-        raise DataError(f"{path.name}: no header row (first line is empty)")
-    return header
-
-
 def cell_error(name: str, rows: np.ndarray, column: str, exc: CellError) -> DataError:
     """The one-line DataError of a bad cell: file ``name``, the 1-based data row (``rows``
     maps table positions to file rows) and the column."""
@@ -162,13 +153,29 @@ def read_time(table: pa.Table, rows: np.ndarray, name: str) -> np.ndarray:
 def read_csv_table(path: Path, wanted: Mapping[str, bool], text: set[str]) -> pa.Table:
     """The ``wanted`` columns (name -> required) of CSV file ``path`` as an Arrow table, the
     ``text`` ones as strings and the rest as float64 where they parse (else as text, for the
-    caller's cell checks); DataError for a missing required column."""
-    header = _csv_header(path)
-    found = _select(path.name, header, wanted)
+    caller's cell checks); DataError for a missing required column.
+
+    The column separator and decimal mark are sniffed (``io.dialect``): a semicolon- or
+    tab-separated file, with decimal points or commas, is read as written and said once (a
+    note); one whose dialect is ambiguous is refused naming the separator."""
+    dialect, header = sniff_dialect(path, wanted, text)
+    try:
+        found = _select(path.name, header, wanted)
+    except DataError as exc:
+        if dialect.separator == ",":
+            raise
+        shown = ", ".join(h.strip() for h in header)
+        raise DataError(f"{exc} (header read as {SEPARATORS[dialect.separator]}-separated: "
+                        f"{shown})") from None
+    if not dialect.is_contract:
+        log.log(NOTE, "%s: read as %s (the contract's CSV: commas between columns, decimal "
+                "points)", path.name, dialect.describe())
     position = {i: key for key, i in found.items()}
     names = [position.get(i, f"__ignored_{i}") for i in range(len(header))]
     read = pacsv.ReadOptions(column_names=names, skip_rows=1)
-    convert = dict(include_columns=list(found), null_values=[""], strings_can_be_null=True)
+    parse = pacsv.ParseOptions(delimiter=dialect.separator)
+    convert = dict(include_columns=list(found), null_values=[""], strings_can_be_null=True,
+                   decimal_point=dialect.decimal)
     # 1) every numeric column float64 (the usual case); 2) time as text (ISO-8601 times);
     # 3) everything as text: conversion in timeparse locates the first bad cell.
     attempts = (
@@ -178,14 +185,28 @@ def read_csv_table(path: Path, wanted: Mapping[str, bool], text: set[str]) -> pa
     )
     for types in attempts:
         try:
-            return pacsv.read_csv(path, read_options=read, convert_options=pacsv.ConvertOptions(
-                column_types=types, **convert))
+            table = pacsv.read_csv(path, read_options=read, parse_options=parse,
+                                   convert_options=pacsv.ConvertOptions(column_types=types,
+                                                                        **convert))
         except pa.ArrowInvalid as exc:
             last = exc
-    raise _csv_parse_error(path, names, last)
+            continue
+        return _decimal_points(table, text) if dialect.decimal == "," else table
+    raise _csv_parse_error(path, names, last, dialect.separator)
 
 
-def _csv_parse_error(path: Path, names: list[str], exc: pa.ArrowInvalid) -> DataError:
+def _decimal_points(table: pa.Table, text: set[str]) -> pa.Table:
+    """The numeric columns read as text (to locate a bad cell) with decimal commas made
+    points, so that only a cell that is no number in the file's dialect is reported."""
+    for i, name in enumerate(table.column_names):
+        col = table.column(i)
+        if name not in text and pa.types.is_string(col.type):
+            table = table.set_column(i, name, pc.replace_substring(col, ",", "."))
+    return table
+
+
+def _csv_parse_error(path: Path, names: list[str], exc: pa.ArrowInvalid,
+                     separator: str = ",") -> DataError:
     """Structural CSV problem: find its row with a single-threaded pass and an invalid-row hook."""
     bad: list[pacsv.InvalidRow] = []
 
@@ -196,7 +217,8 @@ def _csv_parse_error(path: Path, names: list[str], exc: pa.ArrowInvalid) -> Data
     try:
         pacsv.read_csv(path, read_options=pacsv.ReadOptions(column_names=names, skip_rows=1,
                                                             use_threads=False),
-                       parse_options=pacsv.ParseOptions(invalid_row_handler=hook),
+                       parse_options=pacsv.ParseOptions(delimiter=separator,
+                                                        invalid_row_handler=hook),
                        convert_options=pacsv.ConvertOptions(
                            column_types={n: pa.string() for n in names}))
     except pa.ArrowInvalid:
@@ -204,8 +226,9 @@ def _csv_parse_error(path: Path, names: list[str], exc: pa.ArrowInvalid) -> Data
     if bad:
         row = bad[0]
         where = f"row {row.number - 1}: " if row.number else ""
-        return DataError(f"{path.name}: {where}expected {row.expected_columns} fields, got "
-                         f"{row.actual_columns}")
+        sep = "" if separator == "," else f" (separated by {SEPARATORS[separator]}s)"
+        return DataError(f"{path.name}: {where}expected {row.expected_columns} fields{sep}, "
+                         f"got {row.actual_columns}")
     detail = " ".join(str(exc).split())
     return DataError(f"{path.name}: cannot parse CSV ({detail[:200]})")
 

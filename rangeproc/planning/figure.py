@@ -6,6 +6,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 from rangeproc.report.common import (
     CYCLE,
@@ -14,8 +15,13 @@ from rangeproc.report.common import (
     log_axis,
     new_figure,
     save_figure,
-    true_runs,
 )
+from rangeproc.report.timeline import used_spans
+
+
+#: A sensor's coverage bar is broken where its epochs are further apart than this many times
+#: their median spacing (and at least 1.5 output intervals).
+GAP_STEPS = 3.0
 
 
 def plan_figure(table: pd.DataFrame, summary: dict, path: Path) -> Path:
@@ -24,10 +30,26 @@ def plan_figure(table: pd.DataFrame, summary: dict, path: Path) -> Path:
     dotted with every calibration term known, and below them each sensor's coverage (a bar
     where it has rows), weak geometry marked in red."""
     with matplotlib.rc_context(STYLE):
-        return _draw(table, summary, path)
+        return save_figure(draw_plan(table, summary), path)
 
 
-def _draw(table: pd.DataFrame, summary: dict, path: Path) -> Path:
+def coverage_spans(t: np.ndarray, have: np.ndarray) -> list[tuple[float, float]]:
+    """(start, width) in s of the bars of one sensor's row: its epochs ``t[have]`` merged
+    where consecutive ones are at most :data:`GAP_STEPS` median spacings apart (and 1.5
+    output intervals), each bar at least one output interval wide, so that a sensor slower
+    than the output rate (a 1 Hz GPS on a 10 Hz grid: every tenth epoch) is a bar, not a
+    row of invisible points."""
+    tt = t[have]
+    if tt.size == 0:
+        return []
+    grid = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    own = float(np.median(np.diff(tt))) if tt.size > 1 else grid
+    start, end = used_spans(tt, gap=max(GAP_STEPS * own, 1.5 * grid))
+    return [(float(a), float(max(b - a, grid))) for a, b in zip(start, end)]
+
+
+def draw_plan(table: pd.DataFrame, summary: dict) -> Figure:
+    """The figure of :func:`plan_figure` (not saved)."""
     t = table["time"].to_numpy() - float(table["time"].iloc[0])
     ids = list(summary["sensors"])
     fig = new_figure(9.0, 7.5)
@@ -52,19 +74,16 @@ def _draw(table: pd.DataFrame, summary: dict, path: Path) -> Path:
     weak = table["weak"].to_numpy()
     for row, sid in enumerate(ids):
         have = np.array([sid in s.split(",") for s in sensors])
-        starts, stops = true_runs(have)
-        for a, b in zip(starts, stops):
-            ax_s.plot([t[a], t[b - 1]], [row, row], color=CYCLE[row % len(CYCLE)], lw=6,
-                      solid_capstyle="butt")
+        ax_s.broken_barh(coverage_spans(t, have), (row - 0.22, 0.44),
+                         facecolors=CYCLE[row % len(CYCLE)], gid=f"rows {sid}")
         bad = np.array([w.startswith(sid + " ") or f"; {sid} " in w for w in weak])
-        starts, stops = true_runs(bad)
-        for a, b in zip(starts, stops):
-            ax_s.plot([t[a], t[b - 1]], [row, row], color=REJECT_COLOR, lw=6,
-                      solid_capstyle="butt")
+        if bad.any():
+            ax_s.broken_barh(coverage_spans(t, bad), (row - 0.22, 0.44),
+                             facecolors=REJECT_COLOR, gid=f"weak {sid}")
     ax_s.set_yticks(range(len(ids)), ids)
     ax_s.set_ylim(-0.7, len(ids) - 0.3)
     ax_s.invert_yaxis()
     ax_s.set_xlabel("time from the plan's start (s)")
     ax_s.set_title("sensors with rows (red: weak geometry)", fontsize=9)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig

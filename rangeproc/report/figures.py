@@ -21,7 +21,7 @@ from rangeproc.report.calibration import plot_calibration
 from rangeproc.report.common import (STYLE, TimeOrigin, merge_sensors, safe_name, save_figure,
                                      time_origin)
 from rangeproc.report.consistency import plot_consistency
-from rangeproc.report.objects import plot_object_timeline, plot_plan
+from rangeproc.report.objects import plot_map, plot_object_timeline
 from rangeproc.report.residuals import plot_residuals, rejected_points
 from rangeproc.report.timeline import plot_coverage
 from rangeproc.report.trajectory import plot_trajectory
@@ -34,7 +34,7 @@ log = logging.getLogger(__name__)
 #: 10-object scale scenario: consistency 0.88 s, objects 0.77 s, trajectory 0.62 s, a
 #: residual figure 0.27-0.48 s); the report draws the costliest first.
 _DRAW_COST = {"consistency.png": 2.5, "objects.png": 2.2, "trajectory.png": 1.8,
-              "plan.png": 1.0, "coverage.png": 1.0, "calibration.png": 0.8}
+              "map.png": 1.0, "coverage.png": 1.0, "calibration.png": 0.8}
 
 
 def residual_file_names(sensor_ids: Sequence[str]) -> list[str]:
@@ -81,7 +81,7 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
 
     Writes ``trajectory.png``, ``residuals_<sensor>.png`` per sensor (after the calibration's
     corrections), ``consistency.png``, ``coverage.png``, ``objects.png`` (which sensor saw
-    which object when) and ``plan.png`` (every object in plan view; both only when
+    which object when) and ``map.png`` (every object in plan view; both only when
     ``association`` holds any row) and ``calibration.png`` (when any); returns their
     paths in that order. Each file is written atomically (temp
     file + ``os.replace``), so an exception leaves no partial or temp file behind; files
@@ -99,10 +99,10 @@ def write_report(report_dir: Path, tracks: Sequence[TrackEstimate],
     for view, name in zip(views, residual_file_names([v.sensor_id for v in views])):
         jobs.append((name, lambda v=view: plot_residuals(v, t0, rejected_points(v, edits))))
     jobs.append(("consistency.png", lambda: plot_consistency(views, t0)))
-    jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0)))
+    jobs.append(("coverage.png", lambda: plot_coverage(views, tracks, t0, edits)))
     if association is not None and len(association):
         jobs.append(("objects.png", lambda: plot_object_timeline(association, tracks, t0)))
-        jobs.append(("plan.png", lambda: plot_plan(
+        jobs.append(("map.png", lambda: plot_map(
             tracks, np.zeros((0, 3)) if stray is None else stray, sites)))
     if calibration:
         jobs.append(("calibration.png", lambda: plot_calibration(calibration)))

@@ -1,11 +1,11 @@
-"""``objects.png`` and ``plan.png``: which sensor saw which object when, and where each went.
+"""``objects.png`` and ``map.png``: which sensor saw which object when, and where each went.
 
 ``plot_object_timeline`` draws one lane per object (and one for the unassigned rows) from
 ``association.parquet`` (``tracking.routing.association_table``): a thin sub-row per sensor
 with bars where that sensor's rows belonged to the object, swaps (a sensor's track moved to
 another object), relays (another sensor took the object over after a gap) and the bridged
 stretches of the fused track (no used measurement within ``BRIDGED_GAP`` s).
-``plot_plan`` draws every object's fused track in plan view, bridged stretches dashed, over
+``plot_map`` draws every object's fused track in plan view, bridged stretches dashed, over
 the unassigned / clutter plots in grey.
 
 Times are seconds on the range time scale (``since t0`` where a name says so); positions are
@@ -29,6 +29,8 @@ from matplotlib.transforms import blended_transform_factory
 from rangeproc.report.common import CYCLE, break_gaps, new_figure, stride_indices, t0_note, \
     time_axis, true_runs
 from rangeproc.report.timeline import RESOLUTION, _median_step, used_spans
+from rangeproc.report.mapview import (Label, direction_arrow, edge_point, inside, map_extent,
+                                      place_labels, site_points)
 from rangeproc.report.trajectory import MAX_TRACK_POINTS, _draw_sites
 from rangeproc.results import TrackEstimate
 
@@ -51,7 +53,7 @@ SWAP_MIN_SECONDS = 2.0
 MAX_STRAY = 20_000
 #: Lane of the rows with an empty ``target_id``.
 UNASSIGNED = "unassigned"
-#: Sensor colours of the timeline (objects keep ``CYCLE``, as in trajectory.png / plan.png).
+#: Sensor colours of the timeline (objects keep ``CYCLE``, as in trajectory.png / map.png).
 SENSOR_COLORS = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02",
                  "#a6761d", "#393b79", "#843c39", "#17becf")
 STRAY_COLOR = "0.6"
@@ -447,15 +449,18 @@ def _step_ends(steps: np.ndarray) -> np.ndarray:
     return out
 
 
-def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
-              sites: Mapping[str, np.ndarray] | None) -> Figure:
-    """Draw the plan view of every object (``plan.png``).
+def plot_map(tracks: Sequence[TrackEstimate], stray: np.ndarray,
+             sites: Mapping[str, np.ndarray] | None) -> Figure:
+    """Draw the map of every object (``map.png``).
 
     tracks: fused objects (range ENU m; ``data_gap`` (K,) s marks bridged epochs, drawn
     dashed); stray: (M, 3) range ENU m of the unassigned / clutter plots, drawn as grey dots
     (at most ``MAX_STRAY``, evenly strided); sites: id -> (3,) fixed ENU position (m) or
     (N, 3) platform track (m), drawn as in trajectory.png. Axes: east / north in km, equal
-    aspect, fitted to the tracks and sites (plots farther out are counted, not shown).
+    aspect, fitted to the objects and the sensors near them (``report.mapview.map_extent``;
+    without objects, to the plots); a sensor farther away is marked on the view's edge in its
+    direction with its distance, and plots farther out are counted, not shown. Labels do not
+    overprint each other (``report.mapview.place_labels``).
     """
     tracks = [tr for tr in tracks if np.size(tr.time) > 0]
     fig = new_figure(11.0, 9.5)
@@ -464,7 +469,7 @@ def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
     p = p.reshape(-1, 3) if p.size else np.zeros((0, 3))
     p = p[np.isfinite(p[:, :2]).all(axis=1)] / 1e3
 
-    _draw_sites(ax, sites or {})
+    labels = _draw_sites(ax, sites or {})
     ext: list[np.ndarray] = []
     any_bridged = False
     for k, tr in enumerate(tracks):
@@ -488,21 +493,15 @@ def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
                     lw=1.4, ls=(0, (3.5, 2.5)), zorder=3, gid="bridged")
         ax.plot(x[:1, 0], x[:1, 1], "o", ms=8, mfc="white", mec=color, mew=2, zorder=5)
         ax.plot(x[-1:, 0], x[-1:, 1], "s", ms=7, color=color, mec="k", mew=0.6, zorder=5)
-        ax.annotate(tr.target_id, (x[0, 0], x[0, 1]), xytext=(6, 6), textcoords="offset points",
-                    color=color, fontsize=9, fontweight="bold", zorder=6)
+        labels.insert(k, Label(x[0, 0], x[0, 1], tr.target_id, color=color, weight="bold",
+                               size=9.0))
         ext.append(x[np.isfinite(x).all(axis=1)])
-    for pos in (sites or {}).values():
-        q = np.asarray(pos, dtype=float).reshape(-1, np.shape(pos)[-1] if np.ndim(pos) else 1)
-        if q.shape[1] >= 2:
-            ext.append(q[np.isfinite(q[:, :2]).all(axis=1), :2] / 1e3)
     ext = [a for a in ext if a.size]
     outside = 0
     stray_handle: list[Line2D] = []
-    if ext:
-        allp = np.concatenate(ext)
-        lo, hi = allp.min(axis=0), allp.max(axis=0)
-        pad = np.maximum(0.08 * (hi - lo).max(), 1.0)
-        lo, hi = lo - pad, hi + pad
+    extent = map_extent(ext or ([p[:, :2]] if p.shape[0] else []), sites or {})
+    if extent is not None:
+        lo, hi = extent
         # widen the shorter side to the axes' shape, so equal aspect needs no other change
         bbox = ax.get_position()
         shape = (bbox.width * fig.get_figwidth()) / (bbox.height * fig.get_figheight())
@@ -511,9 +510,9 @@ def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
         lo, hi = mid - half, mid + half
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
-        inside = ((p[:, 0] >= lo[0]) & (p[:, 0] <= hi[0]) & (p[:, 1] >= lo[1])
-                  & (p[:, 1] <= hi[1]))
-        outside = int((~inside).sum())
+        in_view = ((p[:, 0] >= lo[0]) & (p[:, 0] <= hi[0]) & (p[:, 1] >= lo[1])
+                   & (p[:, 1] <= hi[1]))
+        outside = int((~in_view).sum())
     if p.shape[0]:
         j = stride_indices(p.shape[0], MAX_STRAY)
         label = f"unassigned / clutter plots ({p.shape[0]:,}"
@@ -523,16 +522,18 @@ def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
                 alpha=0.7, zorder=1, gid="stray")
         stray_handle = [Line2D([], [], ls="none", marker="o", ms=5, mew=0, color=STRAY_COLOR,
                                label=label)]
-    if ext:
+    if extent is not None:
         ax.set_aspect("equal", adjustable="box")
+        labels += _far_sites(ax, sites or {}, lo, hi)
     else:
         ax.set_aspect("equal", adjustable="datalim")
         ax.autoscale_view()
     ax.set_xlabel("east [km]")
     ax.set_ylabel("north [km]")
-    ax.set_title("range ENU frame; ▲ fixed site, ◆ platform at end", fontsize=8.5,
+    ax.set_title("range ENU frame; ▲ fixed site, ◆ platform at end; hollow on the edge: a "
+                 "sensor outside the view, its direction and distance", fontsize=8.5,
                  color="0.3")
-    fig.suptitle(f"Plan view: {len(tracks)} objects, {p.shape[0]:,} unassigned / clutter "
+    fig.suptitle(f"Map: {len(tracks)} objects, {p.shape[0]:,} unassigned / clutter "
                  "plots", fontsize=12, fontweight="bold")
     extra = [Line2D([], [], ls="none", marker="o", ms=7, mfc="white", mec="k", mew=1.6,
                     label="start"),
@@ -547,4 +548,26 @@ def plot_plan(tracks: Sequence[TrackEstimate], stray: np.ndarray,
     if not tracks and not p.shape[0]:
         ax.text(0.5, 0.5, "no object, no unassigned plot", transform=ax.transAxes,
                 ha="center", va="center", color="0.4", fontsize=11)
+    place_labels(ax, labels)
     return fig
+
+
+def _far_sites(ax: Axes, sites: Mapping[str, np.ndarray], lo: np.ndarray, hi: np.ndarray
+               ) -> list[Label]:
+    """A hollow marker on the view's edge for each sensor whose marker lies outside the view
+    (``lo``-``hi`` km), toward it; its label gives the direction and the distance (km) from
+    the view's centre. Returns the labels."""
+    out = []
+    centre = 0.5 * (lo + hi)
+    for name, pos in sites.items():
+        q = site_points(pos)
+        if q.size == 0 or inside(q[-1], lo, hi):
+            continue
+        e = edge_point(q[-1], lo, hi)
+        fixed = np.ndim(pos) == 1
+        ax.plot(e[0], e[1], "^" if fixed else "D", ms=8 if fixed else 6, mfc="white",
+                mec="k" if fixed else "0.3", mew=1.2, zorder=6, gid=f"far {name}")
+        d = q[-1] - centre
+        out.append(Label(e[0], e[1], name, f" {direction_arrow(d)} {np.hypot(*d):.3g} km"
+                         + ("" if fixed else " (platform)"), color="k" if fixed else "0.2"))
+    return out

@@ -39,7 +39,8 @@ CAPTIONS = {
     "coverage.png": "Used data spans per sensor, rejected points, and how many sensors "
                     "contributed to each object when.",
     "objects.png": "Which sensor saw which object when: relays, swaps found, bridged gaps.",
-    "plan.png": "Every object in plan view in its own colour; clutter and unassigned plots grey.",
+    "map.png": "Every object in plan view in its own colour, zoomed to the objects (a sensor "
+               "far away is marked on the edge, toward it); clutter and unassigned plots grey.",
     "calibration.png": "Estimated biases, latency and mount angles with 1-sigma bars.",
 }
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from matplotlib.transforms import blended_transform_factory
@@ -21,6 +22,7 @@ from rangeproc.report.common import (
     t0_note,
     time_axis,
 )
+from rangeproc.report.residuals import rejected_points
 from rangeproc.results import TrackEstimate
 
 #: Edge colour of the hatched gaps between a target's separately estimated spans.
@@ -52,8 +54,12 @@ def _median_step(t: np.ndarray) -> float:
 
 
 def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
-                  t0: float) -> Figure:
-    """Draw the coverage timeline (times relative to t0, s)."""
+                  t0: float, edits: pd.DataFrame | None = None) -> Figure:
+    """Draw the coverage timeline (times relative to t0, s).
+
+    Each sensor's row says its rows used and its rejected points, counted as the residual
+    figure and the page count them (``residuals.rejected_points``: the gate's rejected
+    components and ``edits`` rejections, a removed whole row once), and marks each."""
     tracks = [tr for tr in tracks if np.size(tr.time) > 0]
     nrow = len(views) + len(tracks)
     fig = new_figure(14.0, max(3.2, 1.7 + 0.42 * max(nrow, 1)))
@@ -80,16 +86,18 @@ def plot_coverage(views: Sequence[SensorView], tracks: Sequence[TrackEstimate],
         s, e = used_spans(tu, gap=gap)
         width = np.maximum(e - s, cell)
         ax.broken_barh(list(zip(s, width)), (y - 0.32, 0.64), facecolors=color, lw=0)
-        tr_rej = v.time[v.rejected] - t0
-        tr_rej = tr_rej[np.isfinite(tr_rej)]
+        rejected = rejected_points(v, edits)
+        tr_rej = np.unique(rejected.time) - t0
+        tr_rej = tr_rej[np.isfinite(tr_rej) & (tr_rej >= lo) & (tr_rej <= hi)]
         if tr_rej.size:
             # one tick per drawn pixel column: identical on the page to drawing every point
             cols = np.unique(np.round((tr_rej - lo) / cell))
             ax.plot(lo + cols * cell, np.full(cols.size, y + 0.0), ls="none", marker="|",
                     ms=11, mew=0.9, color=REJECT_COLOR, zorder=3)
         n = v.time.size
-        ax.text(1.005, y, f"{int(used.sum()):,} used / {int(v.rejected.sum()):,} rej"
-                f"\n{s.size:,} spans", transform=trans, fontsize=7, va="center", ha="left")
+        ax.text(1.005, y, f"{int(used.sum()):,} rows used\n{rejected.n:,} points rejected"
+                f"\n{s.size:,} spans", transform=trans, fontsize=7, va="center", ha="left",
+                gid=f"counts {v.sensor_id}")
         labels.append(f"{v.sensor_id}\n({v.kind})" if n else f"{v.sensor_id}\n(no rows)")
     mappable = None
     n_max = max((int(np.nanmax(tr.n_sensors)) for tr in tracks if np.size(tr.n_sensors)),

@@ -23,6 +23,7 @@ from rangeproc.report.common import (
     t0_note,
     time_axis,
 )
+from rangeproc.report.mapview import Label, place_labels
 from rangeproc.results import TrackEstimate
 
 #: Most epochs per target drawn in a line (tracks are decimated by stride for drawing).
@@ -65,7 +66,7 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
     fig.suptitle(_title(tracks), fontsize=12, fontweight="bold")
     fig.text(0.995, 0.005, t0_note(t0), ha="right", va="bottom", fontsize=7, color="0.35")
 
-    _draw_sites(ax_map, sites or {})
+    site_labels = _draw_sites(ax_map, sites or {})
     for k, tr in enumerate(tracks):
         color = CYCLE[k % len(CYCLE)]
         idx = stride_indices(tr.time.size, MAX_TRACK_POINTS)
@@ -94,6 +95,7 @@ def plot_trajectory(tracks: Sequence[TrackEstimate], sites: Mapping[str, np.ndar
                             label=f"achievable σ_{name}")
 
     _finish_map(ax_map, tracks, sites)
+    place_labels(ax_map, site_labels)
     ax_up.set_ylabel(HEIGHT_LABEL)
     ax_up.set_title(HEIGHT_TITLE)
     ax_spd.set_ylabel("speed |v| [m/s]")
@@ -214,17 +216,18 @@ def _nice_step(x: float) -> float:
     return 10.0 * p
 
 
-def _draw_sites(ax: Axes, sites: Mapping[str, np.ndarray]) -> None:
-    """Fixed sites as labelled triangles; moving platforms as thin grey labelled tracks (km)."""
+def _draw_sites(ax: Axes, sites: Mapping[str, np.ndarray]) -> list[Label]:
+    """Fixed sites as triangles; moving platforms as thin grey tracks (km). Returns their
+    labels, for :func:`~rangeproc.report.mapview.place_labels` once the view is final (so
+    that sensors sharing a platform get one label, and no label overprints another)."""
+    labels: list[Label] = []
     for name, pos in sites.items():
         p = np.asarray(pos, dtype=float)
         if p.ndim == 1 and p.size >= 2:
             if not np.isfinite(p[:2]).all():
                 continue
             ax.plot(p[0] / 1e3, p[1] / 1e3, "^", ms=8, color="k", mfc="#ffd700", zorder=6)
-            ax.annotate(name, (p[0] / 1e3, p[1] / 1e3), xytext=(5, 5),
-                        textcoords="offset points", fontsize=8, zorder=7,
-                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.7))
+            labels.append(Label(p[0] / 1e3, p[1] / 1e3, name, color="k"))
         elif p.ndim == 2 and p.shape[0] > 0 and p.shape[1] >= 2:
             p = p[np.isfinite(p[:, :2]).all(axis=1)]
             if p.shape[0] == 0:
@@ -232,9 +235,8 @@ def _draw_sites(ax: Axes, sites: Mapping[str, np.ndarray]) -> None:
             p = p[stride_indices(p.shape[0], 5_000)]
             ax.plot(p[:, 0] / 1e3, p[:, 1] / 1e3, "-", lw=1.0, color="0.45", zorder=2)
             ax.plot(p[-1, 0] / 1e3, p[-1, 1] / 1e3, "D", ms=6, color="0.3", zorder=6)
-            ax.annotate(f"{name} (platform)", (p[-1, 0] / 1e3, p[-1, 1] / 1e3), xytext=(5, 5),
-                        textcoords="offset points", fontsize=8, color="0.2", zorder=7,
-                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.7))
+            labels.append(Label(p[-1, 0] / 1e3, p[-1, 1] / 1e3, name, " (platform)"))
+    return labels
 
 
 def _finish_map(ax: Axes, tracks: Sequence[TrackEstimate],

@@ -11,7 +11,7 @@ import numpy as np
 
 from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.record import EditRecord
-from rangeproc.editing.units import UnitSuspicion, stated_sigma_line
+from rangeproc.editing.units import UnitSuspicion, absent_columns, stated_sigma_line
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.agreement import FarSensor, far_line, far_sensors, pair_line
@@ -202,12 +202,16 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
         sensor_summary.update(before)
         tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
                                               n_no_platform)
-    plausibility(cfg, sensor_summary)
+    plausibility(cfg, sensor_summary, logs)
     return fused, tracks, residuals, targets
 
 
-def plausibility(cfg: Config, sensor_summary: dict[str, dict]) -> None:
-    """The lines of stated sigmas far from the noise the data show."""
+def plausibility(cfg: Config, sensor_summary: dict[str, dict],
+                 logs: Mapping[str, SensorLog]) -> None:
+    """The lines of stated sigmas far from the noise the data show: the noise each sensor's
+    summary pools over every object it sees (``fusion.sensor_use``), of the components its
+    file measures (``logs``, the screened logs by id)."""
     for sen in cfg.sensors:
-        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {})):
+        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {},
+                                      absent_columns(logs[sen.id]))):
             log.warning("%s", line)

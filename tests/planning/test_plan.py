@@ -152,3 +152,22 @@ def test_a_platform_sensor_without_its_ins_file_is_left_out_with_a_line(tmp_path
     with_ins = tmp_path / "with_ins"
     cfg2 = simulate_scenario(with_ins, seed=5, duration=30.0, sensors="S1,SHIP_INS,G1")
     assert "S1" in run_plan(cfg2, with_ins / "truth.csv").summary["sensors"]
+
+
+def test_the_figure_shows_every_sensor_slower_ones_too():
+    """A 1 Hz GPS on a 10 Hz output grid has rows at every tenth epoch only: its row of the
+    figure is a bar over the flight, as the 10 Hz radar's is (it was drawn as zero-length
+    segments, an empty row); a gap in its rows stays a gap."""
+    from rangeproc.planning.figure import draw_plan
+
+    t = np.arange(0.0, 60.0, 0.1)
+    gps = (np.arange(t.size) % 10 == 0) & ((t < 20.0) | (t > 30.0))
+    table = pd.DataFrame({"time": t, **{c: np.ones(t.size) for c in SIGMAS},
+                          "sensors": ["R1,G1" if g else "R1" for g in gps],
+                          "weak": [""] * t.size})
+    fig = draw_plan(table, {"sensors": {"R1": {}, "G1": {}}})
+    bars = {c.get_gid(): c for c in fig.axes[2].collections}
+    widths = {sid: sum(p.get_extents().width for p in bars[f"rows {sid}"].get_paths())
+              for sid in ("R1", "G1")}
+    assert widths["R1"] == pytest.approx(59.9, abs=0.2)
+    assert widths["G1"] == pytest.approx(19.0 + 28.0)    # rows 0-19 s and 31-59 s: the gap stays

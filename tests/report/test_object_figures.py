@@ -1,4 +1,4 @@
-"""Tests of the per-object figures: objects.png (who saw which object when) and plan.png."""
+"""Tests of the per-object figures: objects.png (who saw which object when) and map.png."""
 from __future__ import annotations
 
 import time
@@ -20,7 +20,7 @@ from rangeproc.report.objects import (
     find_swaps,
     object_segments,
     plot_object_timeline,
-    plot_plan,
+    plot_map,
 )
 from rangeproc.results import SensorResiduals, TrackEstimate
 
@@ -186,7 +186,7 @@ def test_plan_one_line_per_object_with_bridged_dashes_and_grey_clutter(tmp_path:
     rng = np.random.default_rng(3)
     tracks = make_tracks()
     with matplotlib.rc_context(STYLE):
-        fig = plot_plan(tracks, make_stray(rng), SITES)
+        fig = plot_map(tracks, make_stray(rng), SITES)
         ax = fig.axes[0]
         labelled = [ln for ln in ax.get_lines() if ln.get_label() in OBJECTS]
         assert [ln.get_label() for ln in labelled] == list(OBJECTS)
@@ -202,7 +202,7 @@ def test_plan_one_line_per_object_with_bridged_dashes_and_grey_clutter(tmp_path:
         assert any("50,000" in x and "drawn" in x for x in legend)
         assert ax.get_xlabel() == "east [km]" and ax.get_ylabel() == "north [km]"
         assert ax.get_aspect() == 1.0
-        assert_good_png(save_figure(fig, tmp_path / "plan.png"))
+        assert_good_png(save_figure(fig, tmp_path / "map.png"))
 
 
 def test_two_million_rows_draw_in_bounded_work(tmp_path: Path, capsys) -> None:
@@ -246,13 +246,13 @@ def test_two_million_rows_draw_in_bounded_work(tmp_path: Path, capsys) -> None:
         fig = plot_object_timeline(table, tracks, T_START)
         n_bars = sum(len(c.get_paths()) for c in fig.axes[0].collections)
         timeline = save_figure(fig, tmp_path / "objects.png")
-        plan_fig = plot_plan(tracks, stray, None)
-        n_stray = sum(len(ln.get_xdata()) for ln in plan_fig.axes[0].get_lines()
+        map_fig = plot_map(tracks, stray, None)
+        n_stray = sum(len(ln.get_xdata()) for ln in map_fig.axes[0].get_lines()
                       if ln.get_gid() == "stray")
-        plan = save_figure(plan_fig, tmp_path / "plan.png")
+        plan = save_figure(map_fig, tmp_path / "map.png")
     elapsed = time.perf_counter() - start
     with capsys.disabled():
-        print(f"\n[objects.png + plan.png, 2,000,000 association rows, {n_clutter:,} stray "
+        print(f"\n[objects.png + map.png, 2,000,000 association rows, {n_clutter:,} stray "
               f"plots: {elapsed:.2f} s]")
     # every sub-row draws at most one bar per time cell; plots are thinned
     assert n_bars <= (n_obj + 1) * 2 * RESOLUTION
@@ -290,14 +290,14 @@ def test_write_report_adds_object_figures_only_with_association_rows(tmp_path: P
                          association=make_association(rng), stray=make_stray(rng, 1_000),
                          progress=seen.append)
     assert [p.name for p in paths] == ["trajectory.png", "residuals_R1.png", "consistency.png",
-                                       "coverage.png", "objects.png", "plan.png",
+                                       "coverage.png", "objects.png", "map.png",
                                        "calibration.png"]
     assert len(seen) == len(paths)
     for p in paths[4:6]:
         assert_good_png(p)
     # without stray plots the plan is still drawn
     paths = write_report(tmp_path / "d", tracks, residuals, association=make_association(rng))
-    assert "plan.png" in [p.name for p in paths]
+    assert "map.png" in [p.name for p in paths]
 
 
 def test_edge_cases_do_not_crash(tmp_path: Path) -> None:
@@ -322,9 +322,9 @@ def test_edge_cases_do_not_crash(tmp_path: Path) -> None:
         for name, (assoc, tracks) in cases.items():
             fig = plot_object_timeline(assoc, tracks, T_START)
             assert save_figure(fig, tmp_path / f"{name}_t.png").read_bytes()[:8] == PNG_SIGNATURE
-            fig = plot_plan(tracks, make_stray(rng, 0), None)
+            fig = plot_map(tracks, make_stray(rng, 0), None)
             assert save_figure(fig, tmp_path / f"{name}_p.png").read_bytes()[:8] == PNG_SIGNATURE
-        fig = plot_plan([], np.full((3, 3), np.nan), {"X": np.array([np.nan, 0, 0])})
+        fig = plot_map([], np.full((3, 3), np.nan), {"X": np.array([np.nan, 0, 0])})
         save_figure(fig, tmp_path / "nothing.png")
 
 

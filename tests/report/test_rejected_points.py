@@ -148,3 +148,29 @@ def test_rejected_table_is_capped_with_the_rest_counted() -> None:
     assert "No point was rejected" in rejected_table({"rejected_points": {"n": 0, "shown": []}})
     assert "Rejected points" in page_html({"rejected_points": {"n": 120, "shown": shown}}, [],
                                           "t")
+
+
+def test_coverage_residuals_and_page_give_one_count_of_rejected_points(run) -> None:
+    """coverage.png said "0 rej" for the radar whose residual figure and page say 3 rejected
+    points (pre-edited, not in the residual rows): every figure now counts the page's
+    points, labelled as points, and marks each of them."""
+    import json
+
+    from rangeproc.report.timeline import plot_coverage
+
+    _, out, seen = run
+    summary = json.loads((out / "summary.json").read_text())
+    views = merge_sensors(seen["residuals"])
+    fig = plot_coverage(views, [], float(views[0].time[0]), seen["edits"])
+    ax = fig.axes[0]
+    for view in views:
+        n = summary["sensors"][view.sensor_id]["n_rejected_points"]
+        assert rejected_points(view, seen["edits"]).n == n
+        text = next(t.get_text() for t in ax.texts if t.get_gid() == f"counts {view.sensor_id}")
+        used = summary["sensors"][view.sensor_id]["n_used"]
+        assert text.splitlines()[:2] == [f"{used:,} rows used", f"{n:,} points rejected"]
+        res = plot_residuals(view, float(view.time[0]), rejected_points(view, seen["edits"]))
+        assert f"rejected {n:,} points" in " ".join(t.get_text() for t in res.texts)
+    assert summary["sensors"]["R1"]["n_rejected_points"] == 3
+    ticks = [ln for ln in ax.lines if ln.get_marker() == "|"]
+    assert sum(ln.get_xdata().size for ln in ticks) == 3        # the three wild ranges
