@@ -57,7 +57,7 @@ from numba import njit
 from rangeproc.estimation.kernels import N_OBSERVED, add_q
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
 from rangeproc.models.measurement import N_COMPONENTS, innovation, measure
-from rangeproc.models.motion import N_KINEMATIC
+from rangeproc.models.motion import N_KINEMATIC, white_jerk_q
 
 #: Epochs that enter V before any may fade: the filter's start-up transient (innovations
 #: of a track still converging from its first fixes) is not a model error, and fading it would
@@ -132,11 +132,7 @@ def fading_factors(stf: np.ndarray, v_mean: float, m: int, G: np.ndarray, P: np.
 def _qg_trace(G: np.ndarray, dt: float, q: float, ap: float, av: float) -> float:
     """``sum_i alpha^i (Q G)_ii`` with ``alpha`` = ``ap`` on position, ``av`` on velocity and
     ``G = H^T H`` (6, 6): with unit ratios, ``tr(H Q H^T)``."""
-    dt2 = dt * dt
-    dt3 = dt2 * dt
-    qpp = q * dt3 * dt2 / 20.0
-    qpv = q * dt2 * dt2 / 8.0
-    qvv = q * dt3 / 3.0
+    qpp, qpv, _, qvv, _, _ = white_jerk_q(dt, q)
     acc = 0.0
     for ax in range(3):
         gpv = G[ax, 3 + ax]

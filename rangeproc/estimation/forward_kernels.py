@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation import fast_update as fu
 from rangeproc.estimation.adaptive import sh_adapt, sh_record, sh_reset
 from rangeproc.estimation.constraint import norm_update
 from rangeproc.estimation.divergence import guard_row
@@ -127,11 +128,27 @@ def ekf_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     sig_row = np.empty(N_COMPONENTS)
     Pu = np.empty(n)
     use_lin = x_lin.shape[0] == E
+    fast = n == fu.N                                     # the fast path's state size
+    (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt, f_AP,
+     f_APHt) = fu.fast_workspace()
     loglik = 0.0
     i = 0
     for k in range(E):
         predict_epoch(x, P, AP, epoch_t, q_steps, k)
         while i < N and meas_epoch[i] == k:
+            m = fu.ekf_moments(model[i], z, sigma, s, Qr, i, x, x_lin, k, use_lin, P, f_idx,
+                               f_sig_row, f_y, f_C, f_Z, f_Hs) if fast else -1
+            if m >= 0:                                   # the fast path took the row
+                dof[i] = m
+                if m > 0:
+                    val, ok, _, mask, ll_row = fu.update(
+                        f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate, True, f_sel,
+                        f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt, f_sdiag)
+                    loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
+                    guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets,
+                              reset_after, reset_inflation, P)
+                i += 1
+                continue
             m = measured_components(z[i], sigma[i], idx, sig_row)
             dof[i] = m
             if m > 0:

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rangeproc.models.motion import white_jerk_q
 from rangeproc.settings import IMM_MODELS
 
 CV, CA, CT = 0, 1, 2
@@ -56,12 +57,10 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
             F[p, v] = dt
             F[p, a] = 0.5 * dt2
             F[v, a] = dt
-            Q[p, p] = q * dt3 * dt2 / 20.0
-            Q[p, v] = Q[v, p] = q * dt2 * dt2 / 8.0
-            Q[p, a] = Q[a, p] = q * dt3 / 6.0
-            Q[v, v] = q * dt3 / 3.0
-            Q[v, a] = Q[a, v] = q * dt2 / 2.0
-            Q[a, a] = q * dt
+            Q[p, p], Q[p, v], Q[p, a], Q[v, v], Q[v, a], Q[a, a] = white_jerk_q(dt, q)
+            Q[v, p] = Q[p, v]
+            Q[a, p] = Q[p, a]
+            Q[a, v] = Q[v, a]
         else:                                              # white acceleration, a reset
             Q[p, p] = qa * dt3 / 3.0
             Q[p, v] = Q[v, p] = qa * dt2 / 2.0

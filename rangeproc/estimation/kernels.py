@@ -6,6 +6,8 @@ They exploit the structure of the models instead of multiplying dense matrices:
   ``F1 = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]]`` (state index = 3 * order + axis), so
   ``F P`` and ``P F^T`` cost 18 multiply-adds per column instead of 81; states beyond the
   ninth (biases) are constants that F leaves alone;
+* the white-jerk noise and the per-axis step are those of ``models.motion``
+  (``white_jerk_q``, ``ca_axis_step``), written once for every user;
 * every measurement Jacobian is zero beyond the first six columns (position, velocity), so
   ``H P`` costs ``6 m n`` instead of ``n^2 m``.
 
@@ -15,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from rangeproc.models.motion import ca_axis_step, white_jerk_q
 
 #: Columns of the state that measurements can depend on (position and velocity).
 N_OBSERVED = 6
@@ -31,19 +35,30 @@ def predict_state(x: np.ndarray, dt: float) -> None:
 
 @njit(cache=True, error_model="numpy")
 def left_f(P: np.ndarray, out: np.ndarray, dt: float) -> None:
-    """``out <- F P`` (n, n) using the Kronecker structure of F."""
+    """``out <- F P`` (n, n) using the Kronecker structure of F (``models.motion
+    .ca_axis_step`` on each axis of each column)."""
     n = P.shape[0]
     h2 = 0.5 * dt * dt
     for j in range(n):
         for a in range(3):
-            p0 = P[a, j]
-            p1 = P[3 + a, j]
-            p2 = P[6 + a, j]
-            out[a, j] = p0 + dt * p1 + h2 * p2
-            out[3 + a, j] = p1 + dt * p2
-            out[6 + a, j] = p2
+            out[a, j], out[3 + a, j], out[6 + a, j] = ca_axis_step(P[a, j], P[3 + a, j],
+                                                                   P[6 + a, j], dt, h2)
         for i in range(9, n):
             out[i, j] = P[i, j]
+
+
+@njit(cache=True, error_model="numpy")
+def right_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
+    """``out <- B F^T`` (n, n) using the Kronecker structure of F (each row's axes by
+    ``models.motion.ca_axis_step``); ``out`` may be ``B`` itself."""
+    n = B.shape[0]
+    h2 = 0.5 * dt * dt
+    for i in range(n):
+        for a in range(3):
+            out[i, a], out[i, 3 + a], out[i, 6 + a] = ca_axis_step(B[i, a], B[i, 3 + a],
+                                                                   B[i, 6 + a], dt, h2)
+        for j in range(9, n):
+            out[i, j] = B[i, j]
 
 
 @njit(cache=True, error_model="numpy")
@@ -67,21 +82,11 @@ def left_f_t(B: np.ndarray, out: np.ndarray, dt: float) -> None:
 def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
     """``P <- F P F^T + Q`` in place (symmetric result); ``FP`` (n, n) work, left = F P.
 
-    Q is ``q Q1(dt) (x) I3`` with the white-jerk block Q1 (see ``models.motion``).
+    Q is ``q Q1(dt) (x) I3`` with the white-jerk block Q1 (``models.motion.white_jerk_q``).
     """
     n = P.shape[0]
     left_f(P, FP, dt)
-    h2 = 0.5 * dt * dt
-    for i in range(n):                              # P = (F P) F^T, column structure
-        for a in range(3):
-            p0 = FP[i, a]
-            p1 = FP[i, 3 + a]
-            p2 = FP[i, 6 + a]
-            P[i, a] = p0 + dt * p1 + h2 * p2
-            P[i, 3 + a] = p1 + dt * p2
-            P[i, 6 + a] = p2
-        for j in range(9, n):
-            P[i, j] = FP[i, j]
+    right_f_t(FP, P, dt)                            # P = (F P) F^T, column structure
     add_q(P, dt, q)
     for i in range(n):
         for j in range(i):
@@ -92,15 +97,14 @@ def predict_cov(P: np.ndarray, FP: np.ndarray, dt: float, q: float) -> None:
 
 @njit(cache=True, error_model="numpy")
 def add_q(P: np.ndarray, dt: float, q: float) -> None:
-    """``P <- P + Q(dt, q)`` for the CA block."""
-    dt2 = dt * dt
-    dt3 = dt2 * dt
-    q00 = q * dt3 * dt2 / 20.0
-    q01 = q * dt2 * dt2 / 8.0
-    q02 = q * dt3 / 6.0
-    q11 = q * dt3 / 3.0
-    q12 = q * dt2 / 2.0
-    q22 = q * dt
+    """``P <- P + Q(dt, q)`` for the CA block (``models.motion.white_jerk_q``). A backward
+    step (``dt`` < 0: carrying a state back in time) adds ``D Q(|dt|) D``, ``D`` flipping
+    the sign of the velocity rows and columns: the covariance of ``F(dt)`` times the noise
+    of the forward step ``|dt|``; forward steps are unchanged by the sign (a product by 1)."""
+    sg = -1.0 if dt < 0.0 else 1.0
+    q00, q01, q02, q11, q12, q22 = white_jerk_q(abs(dt), q)
+    q01 = q01 * sg
+    q12 = q12 * sg
     for a in range(3):
         P[a, a] += q00
         P[a, 3 + a] += q01

@@ -11,7 +11,10 @@ step k). The smoothed covariance uses the Joseph-like symmetric form
 
 algebraically equal to the textbook ``P_{k|k} + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`` (with the
 gain ``C_k = P_{k|k} F_k^T P_{k+1|k}^{-1}``) but a sum of positive semi-definite terms, so it
-stays symmetric positive semi-definite by construction.
+stays symmetric positive semi-definite by construction. The 9-state model without fading
+(the EKF, UKF and Sage-Husa families) takes :func:`_rts_fixed` instead: the
+textbook form, re-symmetrised, at a compile-time state size, with a third of the arithmetic;
+a step where it would lose digits is handed to the symmetric form.
 
 It also returns the EM statistic of the process noise (Shumway & Stoffer 1982): for each step
 the expected squared acceleration increment given all data,
@@ -29,12 +32,24 @@ from numba import njit
 from rangeproc.estimation.fading import apply_fading
 from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, predict_state
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+
 from rangeproc.estimation.spline_filter import add_jerk
+from rangeproc.models.motion import N_KINEMATIC, ca_axis_step, white_jerk_q
+
+N = N_KINEMATIC
+_cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
+_chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
+_pack = njit(nogil=True, error_model="numpy", inline="always")(pack.py_func)
+_unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
 
 
 #: Relative diagonal loadings tried when a predicted covariance fails its Cholesky factorisation
 #: to rounding (thousands of updates at one epoch can leave P_{k|k} a hair indefinite).
 JITTER = (1e-12, 1e-10, 1e-8, 1e-6)
+#: Largest ratio of a predicted to a smoothed variance at which a step is smoothed in the
+#: textbook form (:func:`_rts_fixed`): beyond it the difference of the two costs more than
+#: three digits, and the step takes the symmetric form.
+TEXTBOOK_RATIO = 1e3
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -114,8 +129,15 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     x_pred = np.empty(n)
     x_filt = np.empty(n)                             # filtered state at k
     dx = np.empty(n)
+    fixed = n == N_KINEMATIC and fade is None         # the fixed-size textbook form
     unpack(Ps[E - 1], P_next)
-    for k in range(E - 2, -1, -1):
+    k = E - 2
+    while k >= 0:
+        if fixed:                                      # it returns the step it leaves
+            k = _rts_fixed(epoch_t, xs, Ps, q_steps, want_em, jerk, em, k)
+            if k < 0:
+                break
+            unpack(Ps[k + 1], P_next)
         dt = epoch_t[k + 1] - epoch_t[k]
         q = q_steps[k + 1]
         unpack(Ps[k], P_f)                             # still the filtered value at k
@@ -208,5 +230,117 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
                     acc -= Q_eff[ax, ax] - q * dt
             em[k + 1] = max(acc, 0.0) / 3.0
         P_next, P_f = P_f, P_next                      # smoothed k becomes "next"
+        k -= 1
     return xs, Ps, em
 
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _rts_fixed(epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray, q_steps: np.ndarray,
+               want_em: bool, jerk, em: np.ndarray, start: int) -> int:
+    """:func:`rts_smooth`'s steps for the 9-state CA model without fading, with the state
+    size a compile-time constant, in the textbook form (in place on ``xs``, ``Ps``, ``em``,
+    which hold the filtered values on entry; module docstring):
+
+        C_k^T = P_{k+1|k}^-1 F P_{k|k},   P_{k|N} = P_{k|k} + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T
+
+    with the lower triangle computed and mirrored (re-symmetrised), from step ``start`` (the
+    smoothed values of ``start + 1`` in ``xs``, ``Ps``) down to 0. It stops at a step whose
+    predicted covariance needs diagonal loading to factor, or whose smoothed variances are
+    not above ``P_{k+1|k} / TEXTBOOK_RATIO`` (the difference ``P_{k+1|N} - P_{k+1|k}`` of
+    two large covariances would cost digits the symmetric form keeps: a step just after the
+    divergence guard re-opened the covariance): it returns that step's index, and
+    :func:`rts_smooth` does the step in the symmetric form and hands back (-1: all done).
+    """
+    P_f = np.empty((N, N))
+    P_next = np.empty((N, N))
+    P_pred = np.empty((N, N))
+    L = np.empty((N, N))
+    Ct = np.empty((N, N))
+    M = np.empty((N, N))
+    x_pred = np.empty(N)
+    dx = np.empty(N)
+    _unpack(Ps[start + 1], P_next)
+    for k in range(start, -1, -1):
+        dt = epoch_t[k + 1] - epoch_t[k]
+        q = q_steps[k + 1]
+        h2 = 0.5 * dt * dt
+        _unpack(Ps[k], P_f)
+        for i in range(N):
+            x_pred[i] = xs[k, i]
+        for a in range(3):                             # x_pred = F x_f (+ B S)
+            x_pred[a] += dt * x_pred[3 + a] + h2 * x_pred[6 + a]
+            x_pred[3 + a] += dt * x_pred[6 + a]
+        if jerk is not None:
+            add_jerk(x_pred, jerk[k + 1], dt)
+        for j in range(N):                             # Ct <- F P_f (column structure)
+            for a in range(3):
+                Ct[a, j], Ct[3 + a, j], Ct[6 + a, j] = ca_axis_step(
+                    P_f[a, j], P_f[3 + a, j], P_f[6 + a, j], dt, h2)
+        for i in range(N):                             # P_pred = (F P_f) F^T + Q
+            for a in range(3):
+                P_pred[i, a], P_pred[i, 3 + a], P_pred[i, 6 + a] = ca_axis_step(
+                    Ct[i, a], Ct[i, 3 + a], Ct[i, 6 + a], dt, h2)
+        q00, q01, q02, q11, q12, q22 = white_jerk_q(dt, q)
+        for a in range(3):
+            P_pred[a, a] += q00
+            P_pred[a, 3 + a] += q01
+            P_pred[3 + a, a] += q01
+            P_pred[a, 6 + a] += q02
+            P_pred[6 + a, a] += q02
+            P_pred[3 + a, 3 + a] += q11
+            P_pred[3 + a, 6 + a] += q12
+            P_pred[6 + a, 3 + a] += q12
+            P_pred[6 + a, 6 + a] += q22
+        for i in range(N):
+            for j in range(i):
+                v = 0.5 * (P_pred[i, j] + P_pred[j, i])
+                P_pred[i, j] = v
+                P_pred[j, i] = v
+            for j in range(N):
+                L[i, j] = P_pred[i, j]
+        if not _cholesky(L, N):
+            return k                                   # loading needed: the general code
+        _chol_solve(L, N, Ct, N)                       # C^T = P_pred^-1 F P_f (in place)
+        for i in range(N):
+            dx[i] = xs[k + 1, i] - x_pred[i]
+        for i in range(N):                             # xs = xf + C (xs_next - x_pred)
+            acc = xs[k, i]
+            for j in range(N):
+                acc += Ct[j, i] * dx[j]
+            x_pred[i] = acc
+        for i in range(N):                             # M = (P_next - P_pred) C^T
+            for j in range(N):
+                M[i, j] = 0.0
+            for l in range(N):
+                d = P_next[i, l] - P_pred[i, l]
+                for j in range(N):
+                    M[i, j] += d * Ct[l, j]
+        for i in range(N):                             # P_s = P_f + C M (lower half)
+            for j in range(i + 1):
+                acc = P_f[i, j]
+                for l in range(N):
+                    acc += Ct[l, i] * M[l, j]
+                if j == i and not acc * TEXTBOOK_RATIO > P_pred[i, i]:
+                    return k                           # digits lost: the symmetric form
+                P_pred[i, j] = acc
+        for i in range(N):
+            xs[k, i] = x_pred[i]
+            for j in range(i):
+                P_pred[j, i] = P_pred[i, j]
+        _pack(P_pred, Ps[k])
+        if want_em:                                    # EM statistic, lag-one covariance
+            acc = 0.0                                  # P_{k+1,k|N} = P_next C^T
+            for ax in range(6, 9):
+                cross = 0.0
+                for l in range(N):
+                    cross += P_next[ax, l] * Ct[l, ax]
+                d = xs[k + 1, ax] - xs[k, ax]
+                if jerk is not None:                   # the known input's increment
+                    d -= jerk[k + 1, ax - 6] * dt
+                acc += d * d + P_next[ax, ax] + P_pred[ax, ax] - 2.0 * cross
+            em[k + 1] = max(acc, 0.0) / 3.0
+        for i in range(N):                             # smoothed k becomes "next"
+            for j in range(N):
+                P_next[i, j] = P_pred[i, j]
+    return -1

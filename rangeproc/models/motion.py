@@ -19,6 +19,34 @@ from numba import njit
 N_KINEMATIC = 9
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def white_jerk_q(dt, q):
+    """The white-jerk process noise ``q Q1(dt)`` of one axis: its six distinct entries
+    ``(q00, q01, q02, q11, q12, q22)`` = ``q (dt^5/20, dt^4/8, dt^3/6, dt^3/3, dt^2/2, dt)``
+    (m^2, m^2/s, m^2/s^2, m^2/s^2, m^2/s^3, m^2/s^4 for ``q`` in m^2/s^5, ``dt`` >= 0 in s).
+
+    The one definition of the CA model's process noise: the filters, smoothers, IMM, strong
+    tracking, registration and the trackers of ``tracking/`` all take it from here. ``dt``
+    and ``q`` may be scalars or arrays of one shape (the entries are then arrays). A
+    backward step (``dt`` < 0, ``estimation.kernels.add_q``) has the noise ``D Q1(|dt|) D``
+    with ``D = diag(1, -1, 1)``.
+    """
+    dt2 = dt * dt
+    dt3 = dt2 * dt
+    return (q * dt3 * dt2 / 20.0, q * dt2 * dt2 / 8.0, q * dt3 / 6.0, q * dt3 / 3.0,
+            q * dt2 / 2.0, q * dt)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def ca_axis_step(p0: float, p1: float, p2: float, dt: float,
+                 h2: float) -> tuple[float, float, float]:
+    """``F1 (p0, p1, p2)``: one axis's CA transition ``F1(dt)`` applied to a vector of
+    (position, velocity, acceleration) entries, ``h2 = dt^2 / 2`` (passed in so callers
+    compute it once). The one CA prediction: ``F P`` column by column and ``(F P) F^T`` row
+    by row are this step (``estimation.kernels``, ``tracking.segments``)."""
+    return p0 + dt * p1 + h2 * p2, p1 + dt * p2, p2
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def ca_blocks(dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     """Per-axis blocks (F1, Q1) of the CA model, each (3, 3); Q1 already scaled by ``q``."""
@@ -32,15 +60,14 @@ def ca_blocks(dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     f1[2, 0] = 0.0
     f1[2, 1] = 0.0
     f1[2, 2] = 1.0
-    dt2 = dt * dt
-    dt3 = dt2 * dt
+    q00, q01, q02, q11, q12, q22 = white_jerk_q(dt, q)
     q1 = np.empty((3, 3))
-    q1[0, 0] = q * dt3 * dt2 / 20.0
-    q1[0, 1] = q * dt2 * dt2 / 8.0
-    q1[0, 2] = q * dt3 / 6.0
-    q1[1, 1] = q * dt3 / 3.0
-    q1[1, 2] = q * dt2 / 2.0
-    q1[2, 2] = q * dt
+    q1[0, 0] = q00
+    q1[0, 1] = q01
+    q1[0, 2] = q02
+    q1[1, 1] = q11
+    q1[1, 2] = q12
+    q1[2, 2] = q22
     q1[1, 0] = q1[0, 1]
     q1[2, 0] = q1[0, 2]
     q1[2, 1] = q1[1, 2]

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from rangeproc.estimation.kernels import add_q, left_f, predict_state, right_f_t
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL, measure, wrap_angle
@@ -69,40 +70,16 @@ class ObjectTrack:
 @njit(cache=True, nogil=True)
 def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
            Po: np.ndarray) -> None:
-    """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` into xo, Po.
-
-    ``Po = F P Fᵀ + Q`` with F applied through its structure (per axis p += v dt + a dt²/2,
-    v += a dt), with no allocation: this runs once per scored row."""
-    a = abs(dt)
-    sg = 1.0 if dt > 0 else (-1.0 if dt < 0 else 0.0)
-    h = 0.5 * dt * dt
-    for ax in range(3):
-        p, v, acc = x[ax], x[3 + ax], x[6 + ax]
-        xo[ax] = p + v * dt + h * acc
-        xo[3 + ax] = v + acc * dt
-        xo[6 + ax] = acc
-    for j in range(9):                                  # F P
-        for ax in range(3):
-            pp, pv, pa = P[ax, j], P[3 + ax, j], P[6 + ax, j]
-            Po[ax, j] = pp + dt * pv + h * pa
-            Po[3 + ax, j] = pv + dt * pa
-            Po[6 + ax, j] = pa
-    for i in range(9):                                  # (F P) Fᵀ
-        for ax in range(3):
-            mp, mv, ma = Po[i, ax], Po[i, 3 + ax], Po[i, 6 + ax]
-            Po[i, ax] = mp + dt * mv + h * ma
-            Po[i, 3 + ax] = mv + dt * ma
-    for ax in range(3):
-        i, j, k = ax, 3 + ax, 6 + ax
-        Po[i, i] += q * a ** 5 / 20.0
-        Po[i, j] += q * a ** 4 / 8.0 * sg
-        Po[j, i] += q * a ** 4 / 8.0 * sg
-        Po[i, k] += q * a ** 3 / 6.0
-        Po[k, i] += q * a ** 3 / 6.0
-        Po[j, j] += q * a ** 3 / 3.0
-        Po[j, k] += q * a ** 2 / 2.0 * sg
-        Po[k, j] += q * a ** 2 / 2.0 * sg
-        Po[k, k] += q * a
+    """Constant-acceleration prediction of a 9-state (3 axes) over ``dt`` (s, either sign)
+    into xo, Po: the fusion's own prediction (``estimation.kernels``: ``F x``, ``F P F^T``
+    through the structure of F, and the white-jerk noise, which a backward step adds with the
+    velocity terms' sign flipped), with no allocation: this runs once per scored row."""
+    for i in range(9):
+        xo[i] = x[i]
+    predict_state(xo, dt)
+    left_f(P, Po, dt)
+    right_f_t(Po, Po, dt)
+    add_q(Po, dt, q)
 
 
 @njit(cache=True, nogil=True)

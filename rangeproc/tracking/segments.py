@@ -32,6 +32,7 @@ from numba import njit
 from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.editing.hampel import noise_floor
+from rangeproc.models.motion import ca_axis_step, white_jerk_q
 
 #: Consecutive rejected rows that end a segment, and the least time they must span (s).
 RESET_ROWS = 5
@@ -51,30 +52,24 @@ DIFFUSE = 1e4
 @njit(cache=True)
 def _predict(x: np.ndarray, P: np.ndarray, dt: float, q: float) -> None:
     """1-D constant-acceleration prediction over ``dt`` (s) with white-jerk PSD ``q``, in place
-    on ``x`` (3,) and ``P`` (3, 3): ``F x``, ``F P F^T + Q``."""
-    d2 = dt * dt
-    d3 = d2 * dt
-    x[0] += dt * x[1] + 0.5 * d2 * x[2]
+    on ``x`` (3,) and ``P`` (3, 3): ``F x``, ``F P F^T + Q``: one axis of the fusion's CA
+    model (``models.motion``: the step ``ca_axis_step``, the noise ``white_jerk_q``)."""
+    h2 = 0.5 * dt * dt
+    x[0] += dt * x[1] + h2 * x[2]
     x[1] += dt * x[2]
-    # P <- F P F^T, F = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]]
-    a = 0.5 * d2
-    p00, p01, p02 = P[0, 0], P[0, 1], P[0, 2]
-    p11, p12, p22 = P[1, 1], P[1, 2], P[2, 2]
-    r00 = p00 + dt * p01 + a * p02
-    r01 = p01 + dt * p11 + a * p12
-    r02 = p02 + dt * p12 + a * p22
-    r11 = p11 + dt * p12
-    r12 = p12 + dt * p22
-    n00 = r00 + dt * r01 + a * r02
-    n01 = r01 + dt * r02
-    n02 = r02
-    n11 = r11 + dt * r12
-    P[0, 0] = n00 + q * d3 * d2 / 20.0
-    P[0, 1] = P[1, 0] = n01 + q * d2 * d2 / 8.0
-    P[0, 2] = P[2, 0] = n02 + q * d3 / 6.0
-    P[1, 1] = n11 + q * d3 / 3.0
-    P[1, 2] = P[2, 1] = r12 + q * d2 / 2.0
-    P[2, 2] = p22 + q * dt
+    # F P column by column (P symmetric: column j is row j), then (F P) F^T row by row
+    r00, r10, r20 = ca_axis_step(P[0, 0], P[0, 1], P[0, 2], dt, h2)
+    r01, r11, r21 = ca_axis_step(P[0, 1], P[1, 1], P[1, 2], dt, h2)
+    r02, r12, r22 = ca_axis_step(P[0, 2], P[1, 2], P[2, 2], dt, h2)
+    n00, n01, n02 = ca_axis_step(r00, r01, r02, dt, h2)
+    _, n11, n12 = ca_axis_step(r10, r11, r12, dt, h2)
+    q00, q01, q02, q11, q12, q22 = white_jerk_q(dt, q)
+    P[0, 0] = n00 + q00
+    P[0, 1] = P[1, 0] = n01 + q01
+    P[0, 2] = P[2, 0] = n02 + q02
+    P[1, 1] = n11 + q11
+    P[1, 2] = P[2, 1] = n12 + q12
+    P[2, 2] = r22 + q22
 
 
 @njit(cache=True)
