@@ -25,7 +25,9 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    and mount misalignment are registered and removed (``fusion.registration``), and the
    calibration's uncertainty is finally added to the output epochs' covariance. When the
    first registration corrects the rows, q is searched again on them (the first search saw
-   the sensors' biases as motion: ``docs/methods/estimators.md``, step 3).
+   the sensors' biases as motion: ``docs/methods/estimators.md``, step 3). When the last
+   registration still moves the rows (``SETTLED_SHIFT``), up to ``SETTLING_PASSES`` more
+   passes estimate the noise from a track fit to the corrected rows.
 """
 from __future__ import annotations
 
