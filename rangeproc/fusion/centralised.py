@@ -25,7 +25,9 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    and mount misalignment are registered and removed (``fusion.registration``), and the
    calibration's uncertainty is finally added to the output epochs' covariance. When the
    first registration corrects the rows, q is searched again on them (the first search saw
-   the sensors' biases as motion: ``docs/methods/estimators.md``, step 3).
+   the sensors' biases as motion: ``docs/methods/estimators.md``, step 3). When the last
+   registration still moves the rows (``SETTLED_SHIFT``), up to ``SETTLING_PASSES`` more
+   passes estimate the noise from a track fit to the corrected rows.
 """
 from __future__ import annotations
 
@@ -71,6 +73,7 @@ from rangeproc.fusion.registration import (
     apply_increments,
     calibration_covariance,
     register,
+    row_shift,
 )
 from rangeproc.fusion.thinning import (
     PassRows,
@@ -87,6 +90,13 @@ log = logging.getLogger(__name__)
 LEAD_IN_MODELS = (CV, CA)
 #: Packed entries of the kinematic 9x9 block (the first of the packed lower triangle).
 N_PACKED_NODE = 45
+#: Rows the registration moves after the last refinement pass by more than this (their
+#: largest RMS shift of one sensor component, in its sigmas, ``registration.row_shift``)
+#: leave that pass's track fit to rows no longer there: every sensor's noise estimated from
+#: its residuals would carry the shift (a late radar's pull on the track read as a clean
+#: theodolite's noise), so up to ``SETTLING_PASSES`` more passes run on the corrected rows.
+SETTLED_SHIFT = 0.1
+SETTLING_PASSES = 2
 
 
 
@@ -458,7 +468,8 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             res[at] = expanded.residuals(b, rows.meas_epoch, at)[0]
             return res
 
-        for k in range(p.noise_passes):
+        k, last = 0, p.noise_passes - 1      # last: the final pass's step (settling adds)
+        while k <= last:
             if rows.kept is not None and k == p.noise_passes - 1:   # the final pass: all rows
                 every_row()
             elif settings.refraction is not None and k == 0:   # geometry of the first pass
@@ -471,7 +482,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 if dc.any():            # the residuals of the corrected rows, same track
                     b = apply_increments(b, cal.terms, dc, rate)
                     moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
+                    res_before = out.res
                     out = out._replace(res=residuals_of(moved))
+                    shift = row_shift(res_before, out.res, b.sigma, b.sensor)
+                    if (k == last and p.adapt_noise and shift > SETTLED_SHIFT
+                            and last < p.noise_passes - 1 + SETTLING_PASSES):
+                        last += 1   # the track was fit to rows since moved: noise anew
+                        log.info("registration moved the rows by %.2g sigma after the last "
+                                 "pass: one more, its noise from the corrected rows", shift)
                     if k == 0 and p.process_noise is None:   # q anew on the corrected rows
                         q0, q_next = _searched_q(b, rows.epoch_t, x0, P0, gate, settings)
                         log.info("registration corrected the rows: q = %.3g m^2/s^5 (maximum "
@@ -499,7 +517,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             except NumericalError as exc:       # the pass before stands (its track is sound)
                 failed = str(exc)
             q_used = qq
-            tick(1, f"pass {k + 2}")
+            tick(1 if k < p.noise_passes else 0, f"pass {k + 2}")
             if failed or rho is None and out.resets > resets_before:   # it lost the object:
                 # keep the pass before (a constrained pass is judged by constraint_agrees)
                 log.warning("pass %d: %s; the pass it refines is kept", k + 2, failed or (
@@ -513,6 +531,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                 if k + 1 < p.noise_passes:
                     tick(p.noise_passes - k - 1, "")
                 break
+            k += 1
         if rows.kept is not None:       # stopped on a thinned pass: it is redone on every row
             every_row()
             out = redo()

@@ -405,6 +405,27 @@ def apply_increments(batch: MeasurementBatch, terms: tuple[Term, ...], dc: np.nd
     return replace(batch, z=z, Qr=np.ascontiguousarray(Qr))
 
 
+def row_shift(before: np.ndarray, after: np.ndarray, sigma: np.ndarray,
+              sensor: np.ndarray) -> float:
+    """How far a correction moved the rows, in their sigmas: the largest, over sensor
+    components, RMS of ``(after - before) / sigma`` over the rows where both are finite.
+
+    before, after: (N, 6) the residuals of the rows at one track before and after the
+    correction (their difference is the rows' shift, mount rotations included); sigma (N, 6)
+    the rows' sigmas; sensor (N,) their sensor index. 0.0 when nothing moved.
+    """
+    shift = (after - before) / sigma
+    worst = 0.0
+    for i in np.unique(sensor):
+        d = shift[sensor == i]
+        ok = np.isfinite(d)
+        n = ok.sum(axis=0)
+        sq = np.where(ok, d, 0.0) ** 2
+        if n.any():
+            worst = max(worst, float(np.sqrt(sq.sum(axis=0)[n > 0] / n[n > 0]).max()))
+    return worst
+
+
 def calibration_covariance(cal: Calibration, t: np.ndarray) -> np.ndarray:
     """(M, 45) packed 9x9 trajectory covariance added by the calibration's uncertainty at
     times ``t`` (M,) s (the nearest node's, ``Calibration.node_cov``)."""

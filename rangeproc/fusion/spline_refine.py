@@ -23,6 +23,22 @@ track beyond its uncertainty without fitting the data better than it does. The f
 covariance assumes the sigmas; when its chi-square per degree of freedom exceeds 1 the
 covariance is scaled by it (the usual variance-of-unit-weight correction), so misfit shows in
 the sigmas.
+
+On range rates alone (``filter_choice.range_rates_only``), whichever of the two estimates is
+kept, its covariance is widened by the outer product of their difference
+``d = x_fit - x_smooth`` (all nine states, at every epoch of the fit's span):
+``P + DISAGREEMENT_SHARE d d^T``. There the position is observed only through the change of
+the geometry and the model of the trajectory (knots against white jerk) decides much of the
+estimate; the choice between the two is a test, not a certainty. In the manner of Bayesian
+model averaging, the second moment of the truth about the kept estimate holds ``(1 - w) d
+d^T`` for the weight ``1 - w`` of the other model; with the share 1 the other estimate lies
+within one sigma of the kept one along ``d``, so the kept sigma covers the disagreement
+instead of claiming one of them right (one flight kept the fit with 87 % of its epochs inside
+3 sigma). Where the position is observed directly both are sound and their difference says
+nothing of the kept one's error (for an efficient ``A``, ``Cov(B - A) = Cov(B) - Cov(A)``):
+widening there only inflates (the spline filter's NEES on the linear-Gaussian case of
+``tests/fusion/test_every_filter.py`` fell from 3 to 2.4, under its chi-square bound), so it
+is not done.
 """
 from __future__ import annotations
 
@@ -34,6 +50,7 @@ import numpy as np
 from rangeproc.estimation.residuals import smoothed_residuals
 from rangeproc.estimation.spline_fit import fit_spline
 from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.fusion.filter_choice import range_rates_only
 
 log = logging.getLogger(__name__)
 
@@ -44,6 +61,9 @@ SPACING_MAX = 10.0
 SPACING_SCALES = (1.0, 2.0, 4.0, 8.0)
 #: Largest accepted ratio of the fit's chi-square per dof to the smoother's.
 MAX_CHI2_RATIO = 2.0
+#: Share of the outer product of the fit's and the smoother's difference added to the kept
+#: estimate's covariance (module docstring).
+DISAGREEMENT_SHARE = 1.0
 _TRIL = np.tril_indices(9)
 
 
@@ -119,6 +139,13 @@ def _agrees(fit, epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray) -> bool:
     return bool(np.mean(m2) <= 6.0)
 
 
+def disagreement(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+    """(E, 45) packed ``DISAGREEMENT_SHARE d d^T`` of ``d = x_a - x_b`` (E, 9): what the
+    kept estimate's covariance gains from the other's difference (module docstring)."""
+    d = x_a[:, :9] - x_b[:, :9]
+    return DISAGREEMENT_SHARE * d[:, _TRIL[0]] * d[:, _TRIL[1]]
+
+
 def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.ndarray,
                   xs: np.ndarray, Ps: np.ndarray, used: np.ndarray, res: np.ndarray,
                   hph: np.ndarray, q: np.ndarray, anomalies: np.ndarray,
@@ -152,13 +179,19 @@ def spline_refine(batch: MeasurementBatch, epoch_t: np.ndarray, meas_epoch: np.n
         log.warning("spline fit strays from the smoothed track without fitting the data better "
                     "(chi2/dof %.3g against %.3g): the smoothed track is kept", ratio,
                     chi2_smooth)
+        inside = (epoch_t >= fit.knots[0]) & (epoch_t <= fit.knots[-1])
+        if range_rates_only(batch):
+            Ps = Ps.copy()
+            Ps[inside] += disagreement(fit.evaluate(epoch_t[inside])[0], xs[inside])
         return xs, Ps, res, hph
     inside = (epoch_t >= fit.knots[0]) & (epoch_t <= fit.knots[-1])
     x_fit, P_fit = fit.evaluate(epoch_t[inside])
     P_fit *= max(ratio, 1.0)
     xs, Ps = xs.copy(), Ps.copy()
-    xs[inside, :9] = x_fit
     Ps[inside] = P_fit[:, _TRIL[0], _TRIL[1]]
+    if range_rates_only(batch):
+        Ps[inside] += disagreement(x_fit, xs[inside])
+    xs[inside, :9] = x_fit
     log.info("spline fit: %d interior knots (%d at anomalies), chi2/dof %.3g (smoother %.3g), "
              "%d Gauss-Newton steps", len(fit.knots) - 8, len(anomalies), ratio, chi2_smooth,
              fit.n_iter)
