@@ -111,8 +111,9 @@ class DebugStream(logging.StreamHandler):  # type: ignore[type-arg]
 
 def configure_logging(debug: bool) -> None:
     """Debug: every line to stderr as it comes (:class:`DebugStream`), level DEBUG; else
-    WARNING lines and notes (``run_warnings.NOTE``) held by a :class:`DeferredLog`. Replaces the handlers a previous call (an
-    earlier in-process invocation, or the group before its command's ``--debug``) added."""
+    WARNING lines and notes (``run_warnings.NOTE``) held by a :class:`DeferredLog`. Replaces
+    the handlers a previous call (an earlier in-process invocation, or the group before its
+    command's ``--debug``) added."""
     root = logging.getLogger()
     for handler in [h for h in root.handlers if isinstance(h, (DeferredLog, DebugStream))]:
         root.removeHandler(handler)

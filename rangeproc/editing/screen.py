@@ -1,9 +1,9 @@
 """Screening stage: every sensor log is checked before anything reaches the estimator.
 
 Order: duplicate rows and repeated stamps (``editing.repeats``), then time stamps
-(``editing.timecheck``: beyond the representable range, isolated far stamps), then physical limits and impossible jumps
-(``editing.limits``), then the Hampel pre-edit of wild values (``editing.hampel``), then the
-cross-sensor time overlap (a sensor on the wrong time scale is
+(``editing.timecheck``: beyond the representable range, isolated far stamps), then physical
+limits and impossible jumps (``editing.limits``), then the Hampel pre-edit of wild values
+(``editing.hampel``), then the cross-sensor time overlap (a sensor on the wrong time scale is
 refused). Every removed row or component goes into the run's :class:`EditRecord`.
 """
 from __future__ import annotations

@@ -22,22 +22,35 @@ hull's angular extent; the truth is the antenna, off the centre by its lever arm
 
 Parameters (drawn uniformly in the ranges per seed; ``L`` length, ``B`` beam):
 
-| what | value |
-|---|---|
-| range origin | latitude +-35..65 deg, longitude -180..180 deg, height 0..50 m |
-| start | Unix time 2026-05-04 10:00 UTC + 0..2 h |
-| ferry | starts within 30 m of the origin, 1-3 m/s (0.1 m/s^2), legs of 15-40 s, turns of 20-90 deg at 1.5-4 deg/s, back towards the origin beyond 120 m; roll 0.3-1.2 deg (period 3-6 s), pitch 0.1-0.5 deg (3-6 s), yaw wobble 0.1-0.4 deg (6-15 s) |
-| ferry form | half the seeds north-up (the recordings' form: yaw written 0, deck angles north-referenced, lever arms 0, INS in rad); the others yaw = heading (INS in deg) with sensor lever arms 0.5-2.5 m forward |
-| B1 boat | L 10-14 m, B 0.30-0.38 L; 120-280 m from the origin; 2.5-6.5 m/s (0.4 m/s^2), legs 8-25 s, turns 30-150 deg at 4-10 deg/s, back towards the origin beyond 220 m |
-| B2 ship | L 27-33 m, B 0.20-0.26 L, alongside Q1 (1 m off), leaves 40-50 s after the start: 12-18 s ahead to 3-5 m/s (0.2 m/s^2), a 50-90 deg turn away from the quay at 2-4 deg/s, then legs as the boat's at 2.5-5 m/s, 1.5-3 deg/s, back beyond 250 m |
-| M1, M2 moored | L 7-15 m, B 0.30-0.40 L, alongside Q2 (or Q3), 0.8 m off; never move |
-| antennas | lever arm forward -0.35..0.15 L (boat), -0.4..0.3 L (ship), -0.3..0.3 L (moored); starboard -0.35..0.35 B |
-| quays | Q1 90-160 m long, centre 120-220 m from the origin; Q2 60-200 m, 100-300 m on the other side; Q3 (half the seeds) 50-150 m, 150-350 m; fixed scatterers every 30-60 m and at both ends, each seen per scan with p 0.15-0.4 (radar), 0.05-0.15 (lidar) |
-| RADAR | a scan every 2-3 s, Pd 0.9 per object, one return per object, range 15-500 m, noise range 1.5-3 m, azimuth 0.5-1 deg; sea clutter 0.5-2 plots per scan (Poisson, uniform in area over 15-500 m and all azimuths) |
-| LIDAR | 10 Hz, Pd 0.95, 1 + Poisson(width / 8 m) returns per object (at most 6), range 2-150 m, noise range 0.05-0.2 m, azimuth 0.1-0.3 deg; clutter 0.02 plots per scan |
-| EO | 5 Hz, Pd 0.9 within 600 m, AR(1) bearing error sigma 1-2 deg with lag-1 correlation 0.8-0.9 per frame; 0.02 false bearings per frame |
-| IR (half the seeds) | 8.57 Hz, Pd 0.85 within 400 m, AR(1) sigma 1.5-2.5 deg, lag-1 correlation 0.8-0.9; 0.02 false bearings per frame |
-| FERRY INS | 20 Hz, white noise attitude 0.01-0.02 deg, position 0.05-0.2 m per axis |
+- range origin: latitude +-35..65 deg, longitude -180..180 deg, height 0..50 m
+- start: Unix time 2026-05-04 10:00 UTC + 0..2 h
+- ferry: starts within 30 m of the origin, 1-3 m/s (0.1 m/s^2), legs of 15-40 s, turns of 20-90
+  deg at 1.5-4 deg/s, back towards the origin beyond 120 m; roll 0.3-1.2 deg (period 3-6 s),
+  pitch 0.1-0.5 deg (3-6 s), yaw wobble 0.1-0.4 deg (6-15 s)
+- ferry form: half the seeds north-up (the recordings' form: yaw written 0, deck angles north-
+  referenced, lever arms 0, INS in rad); the others yaw = heading (INS in deg) with sensor lever
+  arms 0.5-2.5 m forward
+- B1 boat: L 10-14 m, B 0.30-0.38 L; 120-280 m from the origin; 2.5-6.5 m/s (0.4 m/s^2), legs
+  8-25 s, turns 30-150 deg at 4-10 deg/s, back towards the origin beyond 220 m
+- B2 ship: L 27-33 m, B 0.20-0.26 L, alongside Q1 (1 m off), leaves 40-50 s after the start:
+  12-18 s ahead to 3-5 m/s (0.2 m/s^2), a 50-90 deg turn away from the quay at 2-4 deg/s, then
+  legs as the boat's at 2.5-5 m/s, 1.5-3 deg/s, back beyond 250 m
+- M1, M2 moored: L 7-15 m, B 0.30-0.40 L, alongside Q2 (or Q3), 0.8 m off; never move
+- antennas: lever arm forward -0.35..0.15 L (boat), -0.4..0.3 L (ship), -0.3..0.3 L (moored);
+  starboard -0.35..0.35 B
+- quays: Q1 90-160 m long, centre 120-220 m from the origin; Q2 60-200 m, 100-300 m on the other
+  side; Q3 (half the seeds) 50-150 m, 150-350 m; fixed scatterers every 30-60 m and at both
+  ends, each seen per scan with p 0.15-0.4 (radar), 0.05-0.15 (lidar)
+- RADAR: a scan every 2-3 s, Pd 0.9 per object, one return per object, range 15-500 m, noise
+  range 1.5-3 m, azimuth 0.5-1 deg; sea clutter 0.5-2 plots per scan (Poisson, uniform in area
+  over 15-500 m and all azimuths)
+- LIDAR: 10 Hz, Pd 0.95, 1 + Poisson(width / 8 m) returns per object (at most 6), range 2-150 m,
+  noise range 0.05-0.2 m, azimuth 0.1-0.3 deg; clutter 0.02 plots per scan
+- EO: 5 Hz, Pd 0.9 within 600 m, AR(1) bearing error sigma 1-2 deg with lag-1 correlation
+  0.8-0.9 per frame; 0.02 false bearings per frame
+- IR (half the seeds): 8.57 Hz, Pd 0.85 within 400 m, AR(1) sigma 1.5-2.5 deg, lag-1 correlation
+  0.8-0.9; 0.02 false bearings per frame
+- FERRY INS: 20 Hz, white noise attitude 0.01-0.02 deg, position 0.05-0.2 m per axis
 
 Stated sigmas: each radar, lidar and camera's range and azimuth sigma in ``scenario.toml``
 is its residuals' robust spread (1.4826 x MAD) against the true antenna track, at the file's

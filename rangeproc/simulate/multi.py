@@ -28,8 +28,8 @@ among a boat, a ship leaving a quay and moored boats with extended hulls, quays 
 clutter, written like the Autoferry recordings (:mod:`rangeproc.simulate.harbour`: no GPS,
 no R1, sensors on the ferry's INS platform; its own truth columns and files).
 
-Every kind but ``harbour`` has GPS on some objects only, a fixed tracking radar R1 (20 Hz per track, with
-track_id), missed detections, noise, wild points and empty cells as in the single-object
+Every kind but ``harbour`` has GPS on some objects only, a fixed tracking radar R1 (20 Hz per
+track, with track_id), missed detections, noise, wild points and empty cells as in the single-object
 scenario, and one sensor with a known latency (``time_offset``). Randomness:
 ``default_rng(seed).spawn(3)``: geometry, flights (one stream per object), sensors (one stream
 per sensor in config order). Even seeds stamp GPS in ISO-8601 (all times Unix seconds).

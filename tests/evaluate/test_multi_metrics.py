@@ -179,8 +179,8 @@ def test_false_object(tmp_path):
 def test_localisation_and_cutoff(tmp_path, d, cutoff, loc, miss_false):
     t = _epochs(0, 30)
     off = np.array([0.6, 0.0, 0.8]) * d
-    mu = _run(tmp_path, [_follow("O1", "T1", t, off), _follow("O2", "T2", t)], _truth(span=(0, 2.9)),
-              cutoff=cutoff)["multi"]
+    mu = _run(tmp_path, [_follow("O1", "T1", t, off), _follow("O2", "T2", t)],
+              _truth(span=(0, 2.9)), cutoff=cutoff)["multi"]
     g = mu["gospa"]
     assert g["localisation_mean"] == pytest.approx(loc)
     assert g["missed_mean"] + g["false_mean"] == pytest.approx(miss_false)

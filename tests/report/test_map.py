@@ -63,7 +63,7 @@ def test_the_map_zooms_to_the_objects_and_marks_the_far_site():
 def test_sensors_on_one_platform_get_one_label_and_no_label_overprints_another():
     boats, sites = harbour()
     with matplotlib.rc_context(STYLE):
-        for fig, ax in ((f := plot_map(boats, np.zeros((0, 3)), sites), f.axes[0]),
+        for _fig, ax in ((f := plot_map(boats, np.zeros((0, 3)), sites), f.axes[0]),
                         (g := plot_trajectory(boats, sites, 0.0), g.axes[0])):
             texts = [t.get_text() for t in _texts(ax)]
             platform = [t for t in texts if "(platform)" in t]

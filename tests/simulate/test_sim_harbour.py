@@ -112,7 +112,7 @@ def test_contract_form_and_read_back_without_warning(scene, caplog):
     kinds = {s["id"]: s["kind"] for s in cfg["sensors"]}
     assert {k: kinds[k] for k in ("FERRY", "RADAR", "LIDAR", "EO")} == {
         "FERRY": "ins", "RADAR": "radar", "LIDAR": "radar", "EO": "theodolite"}
-    for sid, s in scene.sensor.items():
+    for _sid, s in scene.sensor.items():
         df = pd.read_csv(scene.dir / s["file"])
         assert "track_id" not in df.columns
         if s["kind"] == "ins":
@@ -218,7 +218,7 @@ def _camera_residuals(sc: Scene, sid: str) -> list[tuple[np.ndarray, np.ndarray]
 
 def test_camera_bearing_is_the_hull_centre_without_noise(exact):
     for sc in exact:
-        for t, res in _camera_residuals(sc, "EO"):
+        for _t, res in _camera_residuals(sc, "EO"):
             assert np.abs(res).max() < math.radians(0.02)
 
 
