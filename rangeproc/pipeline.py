@@ -16,7 +16,7 @@ import rangeproc
 from rangeproc.config import Config, load_config
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.fusion.accounting import accounting_lines, row_accounting, rows_summary
+from rangeproc.stages.accounting import accounting_lines, row_accounting, rows_summary
 from rangeproc.fusion.isolated import mark_isolated
 from rangeproc.fusion.edit_audit import edit_summary, rejected_examples
 from rangeproc.fusion.edit_table import edit_table
@@ -92,7 +92,7 @@ def without_objects(summary: dict, gone: set[str]) -> dict:
 def account(cfg: Config, sensor_summary: dict[str, dict], fates: dict[str, np.ndarray],
             logs: dict) -> None:
     """Each sensor's ``rows`` in its summary entry, and the lines of the sensors that lose
-    rows (``fusion.accounting``)."""
+    rows (``stages.accounting``)."""
     for s in cfg.sensors:
         sensor_summary[s.id]["rows"] = rows_summary(
             fates[s.id], s.platform is not None, s.kind in ASSOCIATED_KINDS)

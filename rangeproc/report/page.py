@@ -141,7 +141,7 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
 
 def _rows_lost_cell(s: Mapping[str, Any]) -> str:
     """The sensor's rows that no object used, per reason (``summary.json``'s ``rows``,
-    ``fusion.accounting``): rejected, without platform geometry, not associated, not
+    ``stages.accounting``): rejected, without platform geometry, not associated, not
     started, nothing measured; "–" when every row was used."""
     r = s.get("rows")
     if not r:

@@ -1,4 +1,4 @@
-"""Every row accounted for (fusion.accounting, editing.repeats, fusion.isolated), on hand-made
+"""Every row accounted for (stages.accounting, editing.repeats, fusion.isolated), on hand-made
 files (tests/handmade.py): each spoiled case gives exactly one warning line naming the sensor,
 the count and the likely cause; the rows of every sensor add up to the rows read; a sensor's
 misplaced rows make no phantom object unless keep_isolated = true; clean files say nothing."""
