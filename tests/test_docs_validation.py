@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import pytest
@@ -49,6 +50,8 @@ def multi_numbers(data) -> list[str]:
 def autoferry_numbers(data) -> list[str]:
     out = [f"{s['gospa_mean']:.2f}" for s in data["acceptance"]["per_tracker"].values()
            if s.get("gospa_mean") is not None]
+    out += [f"{v:.1f}" for s in data["acceptance"]["per_tracker"].values()
+            for v in (s.get("gospa_rms") or {}).values() if v is not None]
     for r in data["results"]:
         sc = r["rangeproc_contract"].get("score")
         if sc:
@@ -197,6 +200,39 @@ def test_autoferry_and_a_jpda_that_did_not_finish(tmp_path: Path) -> None:
     text = page("validation/real-data.md", tmp_path)
     for n in ("3.1", "11.3", "25.5", "timed out", "11.34", "3.64", "All three hold in 1 of 1"):
         assert n in text, n
+
+
+def test_autoferry_with_smoothed_baselines_and_acceptance_lines(tmp_path: Path) -> None:
+    """The page from what bench/autoferry.py writes now: the RTS-smoothed baselines' columns,
+    issue 41's acceptance lines (measured, target, met), the GOSPA RMS per environment with
+    the published figures."""
+    sys.path.insert(0, str(REPO / "bench"))
+    import autoferry as bench
+
+    def sc(gospa: float, rmse: float, cov: float, rms: float) -> dict:
+        return dict(_score(gospa, rmse), gospa_rms=rms, n_epochs=400,
+                    boats={b: dict(m, coverage=cov) for b, m in _score(gospa, rmse)["boats"].items()})
+    results = []
+    for n in (2, 13):
+        base = {"finished": True, "score": sc(26.5, 9.25, 0.87, 31.5)}
+        results.append({"scenario": n,
+                        "rangeproc_contract": {"ok": True, "score": sc(12.75, 4.5, 0.95, 13.2)},
+                        "rangeproc_no_cameras": {"ok": True, "score": sc(13.0, 5.0, 0.9, 14.0)},
+                        "stonesoup": dict(base), "stonesoup_rts": {
+                            "finished": True, "score": sc(21.5, 7.7, 0.88, 27.3)},
+                        "stonesoup_jpda": {"finished": False, "timed_out": True},
+                        "stonesoup_jpda_rts": {"finished": False, "timed_out": True}})
+    acc = bench.acceptance(results)
+    write(tmp_path, "autoferry.json", {"meta": META, "cutoff_m": 20.0, "results": results,
+                                       "acceptance": acc})
+    text = page("validation/real-data.md", tmp_path)
+    for n in ("Stone Soup GNN+RTS RMSE", "Stone Soup JPDA+RTS RMSE", "timed out", "7.7",
+              "21.5", "GOSPA RMS 2-6 (m)", "GOSPA RMS 13-22 (m)", "13.2", "27.3", "20.4",
+              "31.0", "Ocean Engineering", "mean coverage (boat-scenarios)", ">= 0.90",
+              "0.950", "swaps no more than the best baseline", "GNN / JPDA / GNN+RTS / JPDA+RTS",
+              "GOSPA and RMSE", "Coverage per boat-scenario"):
+        assert n in text, n
+    assert "All three hold" not in text
 
 
 def test_speed_from_an_old_results_file_with_machine_block(tmp_path: Path) -> None:

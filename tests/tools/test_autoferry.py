@@ -1,6 +1,7 @@
 """tools/autoferry.py (the Autoferry dataset -> data contract) and bench/autoferry.py's Stone
-Soup runners (GNN, JPDA), its camera-less conversion, its time limit and its acceptance block,
-on scenario 2 of the shared dataset (skipped where the dataset is absent).
+Soup runners (GNN, JPDA, the GNN's RTS-smoothed tracks), its camera-less conversion and its
+time limit, on scenario 2 of the shared dataset (skipped where the dataset is absent). The
+smoother and the acceptance block without the dataset: test_autoferry_baselines.py.
 
 The INS round trip is checked independently of pymap3d (which the converter uses): pyproj's
 WGS-84 geodetic -> ECEF, then the ECEF -> NED rotation at the Piren origin written out here.
@@ -133,7 +134,7 @@ def test_stonesoup_runner_tracks_scenario_2(scenario2, tmp_path):
     """Stone Soup's GNN tracker on scenario 2's plots (a few seconds; must stay under 60 s)."""
     plots = bench.read_plots(scenario2.parent)
     assert set(plots.sensor) == {"RADAR", "LIDAR"} and np.all(np.diff(plots.t) >= 0)
-    out = bench.run_stonesoup(scenario2.parent, tmp_path / "ss")
+    out = bench.run_stonesoup(scenario2.parent, tmp_path / "ss", smooth_dir=tmp_path / "rts")
     assert out["n_tracks"] >= 2 and out["seconds"] < 60.0
     fused = pd.read_parquet(tmp_path / "ss" / "fused.parquet")
     assert fused["target_id"].str.fullmatch(r"S\d+").all()
@@ -142,6 +143,13 @@ def test_stonesoup_runner_tracks_scenario_2(scenario2, tmp_path):
     multi = evaluate_run(tmp_path / "ss", scenario2.parent / "truth.csv", cutoff=20.0)["multi"]
     assert set(multi["truth"]) == {"B1", "B2"}
     assert max(m["coverage"] for m in multi["truth"].values()) > 0.5
+    # the RTS-smoothed tracks: the same objects on the same epochs, other positions
+    smoothed = pd.read_parquet(tmp_path / "rts" / "fused.parquet")
+    assert out["smoothed"]["n_tracks"] == out["n_tracks"]
+    assert smoothed[["target_id", "time"]].equals(fused[["target_id", "time"]])
+    assert not np.allclose(smoothed["e"], fused["e"])
+    rts = evaluate_run(tmp_path / "rts", scenario2.parent / "truth.csv", cutoff=20.0)["multi"]
+    assert max(m["coverage"] for m in rts["truth"].values()) > 0.5
 
 
 def test_stonesoup_jpda_runner_tracks_scenario_2(scenario2, tmp_path):
@@ -177,39 +185,6 @@ def test_strip_cameras(dataset, tmp_path):
     assert {s.id for s in load_config(config).sensors} == {"FERRY", "RADAR", "LIDAR"}
     assert not (config.parent / "EO.csv").exists() and not (config.parent / "IR.csv").exists()
     assert (config.parent / "RADAR.csv").is_file() and (config.parent / "truth.csv").is_file()
-
-
-def _fake_score(gospa: float, rmse: tuple, cov: tuple, swaps: tuple = (0, 0)) -> dict:
-    return {"gospa_mean": gospa, "boats": {
-        b: {"best_match": None if r is None else "X", "best_match_rmse": r, "coverage": c,
-            "swaps": w} for b, r, c, w in zip(("B1", "B2"), rmse, cov, swaps)}}
-
-
-def test_acceptance_block():
-    """Strictly better than every baseline that finished; a missing match counts as inf."""
-    good = _fake_score(20.0, (5.0, 6.0), (0.9, 0.9), (1, 0))
-    gnn = _fake_score(25.0, (7.0, 8.0), (0.8, 0.8), (2, 2))
-    jpda = _fake_score(24.0, (6.0, None), (0.85, 0.0))
-    results = [
-        {"scenario": 1, "rangeproc_contract": {"ok": True, "score": good},
-         "stonesoup": {"score": gnn}, "stonesoup_jpda": {"finished": True, "score": jpda}},
-        {"scenario": 2, "rangeproc_contract": {"ok": True, "score": gnn},
-         "stonesoup": {"score": good},
-         "stonesoup_jpda": {"finished": False, "timed_out": True, "error": "x"}},
-        {"scenario": 3, "rangeproc_contract": {"ok": False},
-         "stonesoup": {"score": gnn}, "stonesoup_jpda": {"finished": True, "score": jpda}},
-    ]
-    acc = bench.acceptance(results)
-    per = {r["scenario"]: r for r in acc["per_scenario"]}
-    assert per[1]["all"] and per[1]["baselines_compared"] == ["stonesoup", "stonesoup_jpda"]
-    assert per[2]["baselines_compared"] == ["stonesoup"] and not per[2]["gospa"]
-    assert not per[3]["all"] and per[3]["note"] == "rangeproc failed"
-    assert acc["n_all_three"] == 1
-    jp = acc["per_tracker"]["stonesoup_jpda"]
-    assert jp["n_scenarios"] == 2 and jp["n_rmse_above_30m"] == 2
-    assert acc["per_tracker"]["rangeproc"]["swaps_total"] == 1 + 2 + 2
-    assert "all three hold in 1 of 3" in bench.format_acceptance(acc)
-    assert "did not finish" in bench.format_table(results)
 
 
 @pytest.mark.parametrize("scenario", [3, 4, 5, 6, 13, 16, 17, 22])
