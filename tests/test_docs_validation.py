@@ -211,7 +211,8 @@ def test_autoferry_with_smoothed_baselines_and_acceptance_lines(tmp_path: Path) 
 
     def sc(gospa: float, rmse: float, cov: float, rms: float) -> dict:
         return dict(_score(gospa, rmse), gospa_rms=rms, n_epochs=400,
-                    boats={b: dict(m, coverage=cov) for b, m in _score(gospa, rmse)["boats"].items()})
+                    boats={b: dict(m, coverage=cov)
+                           for b, m in _score(gospa, rmse)["boats"].items()})
     results = []
     for n in (2, 13):
         base = {"finished": True, "score": sc(26.5, 9.25, 0.87, 31.5)}
