@@ -15,6 +15,17 @@ Two estimators, both robust to wild points (median based):
   scale is dilated over a quarter window so the edges of a short burst are covered too). This is
   the residual-RMS adaptation of Zhou et al. 2001 sec. 2.3.1, done as a smoother-based, windowed
   estimate.
+  Errors correlated in time (the returns of an extended object coming from the side the
+  sensor sees for a while, a camera's slowly varying bearing error) carry less information
+  than as many white ones: where the lag-1 correlation ``rho`` of a sensor's normalised
+  residuals (consecutive rows of one object, :func:`lag_correlation`) exceeds ``RHO_MIN``,
+  its sigma is multiplied by ``sqrt((1 + rho) / (1 - rho))`` (:func:`correlation_discount`,
+  ``rho`` at most ``RHO_MAX``): the variance of the mean of an AR(1) sequence of lag-1
+  correlation ``rho`` over many samples is ``(1 + rho) / (1 - rho)`` times that of as many
+  independent ones (Bryson and Henrikson 1968 treat such errors as a Gauss-Markov state; this
+  is the information discount that leaves the state alone, cf. Petovello et al. 2009), so the
+  smoother credits the rows with what they are worth. White residuals (point targets, a
+  tracking radar's noise) have ``rho`` near 0 and are left alone.
   Finally each row is down-weighted by Huber's rule (weight ``min(1, k / |u|)`` for the
   normalised residual ``u``, i.e. sigma times ``sqrt(|u| / k)``), the M-estimation answer to
   residuals that are large but not wild; gross outliers are still rejected by the gate.
@@ -122,7 +133,8 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
             sig[~burst] = glob
             u = np.abs(np.nan_to_num(r)) / sig
             sig = sig * np.sqrt(np.maximum(1.0, u / huber_k))
-            sigma[rows, c] = sig
+            rho = lag_correlation(batch.t[rows], r / sig, used_c & ~burst & (u < _CLIP))
+            sigma[rows, c] = sig * correlation_discount(rho)
             why[rows[burst], c] = BURST
             why[rows[~burst & (u > huber_k)], c] = HUBER
     return sigma, found, why
@@ -142,3 +154,39 @@ def _clipped_rms(r: np.ndarray, hph: np.ndarray, use: np.ndarray, robust: float)
     if keep.sum() < MIN_ROWS:
         return robust
     return float(np.sqrt(max(np.mean(r[keep] ** 2) / _CLIP_VAR + np.mean(hph[keep]), 0.0)))
+
+
+#: A sensor's residual lag-1 correlation above this (smoothed residuals of white noise have
+#: |rho| of a few hundredths) discounts its rows' information; at most this correlation is
+#: credited (a discount of sqrt(39) = 6.2 in sigma).
+RHO_MIN = 0.3
+RHO_MAX = 0.95
+
+
+def lag_correlation(t: np.ndarray, u: np.ndarray, use: np.ndarray) -> float:
+    """Lag-1 correlation (dimensionless) of the normalised residuals u (N,) of consecutive
+    rows (times t (N,) s ascending) no more than 1.5 median steps apart, over the rows
+    ``use`` (N,) bool: ``sum u_k u_k+1 / sqrt(sum u_k^2 sum u_k+1^2)``; 0 with fewer than
+    ``MIN_ROWS`` such pairs."""
+    idx = np.flatnonzero(use & np.isfinite(u))
+    if idx.size < MIN_ROWS:
+        return 0.0
+    dt = np.diff(t[idx])
+    pos = dt[dt > 0]
+    if pos.size == 0:
+        return 0.0
+    ok = (dt > 0) & (dt <= 1.5 * np.median(pos))
+    a, b = u[idx[:-1][ok]], u[idx[1:][ok]]
+    if a.size < MIN_ROWS:
+        return 0.0
+    den = np.sqrt(np.sum(a * a) * np.sum(b * b))
+    return float(np.sum(a * b) / den) if den > 0 else 0.0
+
+
+def correlation_discount(rho: float) -> float:
+    """The sigma factor of rows whose errors have lag-1 correlation ``rho``: 1 up to
+    ``RHO_MIN``, else ``sqrt((1 + rho) / (1 - rho))`` with ``rho`` at most ``RHO_MAX``."""
+    if not rho > RHO_MIN:
+        return 1.0
+    r = min(rho, RHO_MAX)
+    return float(np.sqrt((1.0 + r) / (1.0 - r)))

@@ -10,7 +10,11 @@ combined over the objects:
   objects' estimates ``s_k`` weighted by the used components ``n_k`` of each (the root mean
   square over all used rows when each object's estimate is its rows' RMS);
 * ``bias.<component>.median_residual``: the median of the used residuals of every object
-  together.
+  together;
+* ``noise.<component>.correlation``: the lag-1 correlation of the sensor's normalised final
+  residuals, consecutive rows of one object (``fusion.noise.lag_correlation``), pooled over the
+  objects like the sigma, and ``noise.<component>.discount``: the factor its rows' sigma
+  carries for it (``fusion.noise.correlation_discount``; 1 for errors white in time).
 
 With more than one object, ``by_object`` gives each object's own rows used, noise estimate and
 median residual per component, so that a sensor whose noise differs between objects (one
@@ -25,6 +29,7 @@ import numpy as np
 
 from rangeproc.config import SensorSettings
 from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.noise import correlation_discount, lag_correlation
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals
 
@@ -44,9 +49,10 @@ class ObjectUse:
     residuals: SensorResiduals
 
 
-def _component_stats(use: ObjectUse) -> dict[str, tuple[str, float | None, np.ndarray]]:
+def _component_stats(use: ObjectUse
+                     ) -> dict[str, tuple[str, float | None, np.ndarray, float]]:
     """Per measured component of the sensor in one object: (unit, estimated sigma or None,
-    the used residuals (K,))."""
+    the used residuals (K,), their lag-1 correlation)."""
     res, i = use.result, use.index
     rows = res.batch.sensor == i
     model = int(res.batch.model[rows][0])
@@ -56,7 +62,11 @@ def _component_stats(use: ObjectUse) -> dict[str, tuple[str, float | None, np.nd
         if not np.isfinite(res.batch.z[rows, c]).any():
             continue
         used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
-        out[name] = (unit, res.noise.get((i, c)), res.res[used, c])
+        at = np.flatnonzero(rows)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = res.res[at, c] / res.batch.sigma[at, c]
+        rho = lag_correlation(res.batch.t[at], u, used[at])
+        out[name] = (unit, res.noise.get((i, c)), res.res[used, c], rho)
     return out
 
 
@@ -98,8 +108,12 @@ def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:
         parts = [st[name] for st in stats if name in st]
         unit = parts[0][0]
         pooled = np.concatenate([p[2] for p in parts])
+        n = np.array([p[2].size for p in parts], float)
+        rho = float(np.sum(n * [p[3] for p in parts]) / n.sum()) if n.sum() else 0.0
         noise[name] = {"unit": unit, "apriori": s.sigma.get(SIGMA_KEY.get(name, name)),
-                       "estimated": _pooled([(p[1], p[2]) for p in parts])}
+                       "estimated": _pooled([(p[1], p[2]) for p in parts]),
+                       "correlation": round(rho, 4),
+                       "discount": round(correlation_discount(rho), 4)}
         bias[name] = {"unit": unit,
                       "median_residual": float(np.median(pooled)) if pooled.size else None}
     out = {"n_used": n_used, "n_rejected": n_rejected, "n_partly_rejected": n_partly,

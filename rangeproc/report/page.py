@@ -126,6 +126,8 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
         noise = "<br>".join(
             f"{esc(c)}: {esc(_shown(n.get('apriori'), n.get('unit', '')))} → "
             f"<b>{esc(_shown(n.get('estimated'), n.get('unit', '')))}</b>"
+            + (f" (ρ {n['correlation']:.2f}: ×{n['discount']:.2f})"
+               if (n.get("discount") or 1.0) > 1.0 else "")
             for c, n in (s.get("noise") or {}).items())
         cal = "<br>".join([*_time_offset_cell(s.get("time_offset")),
                            *(_calibration_cell(name, c)
@@ -135,7 +137,8 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
                      _down_weighted_cell(s), noise or "–", cal or "–"])
     return html_table(["sensor", "kind", "rows read", "used", "rows not used (by reason)",
                        "rejected points", "down-weighted (expected if Gaussian)",
-                       "noise 1σ: a priori → estimated", "calibration (± 1σ)"], rows,
+                       "noise 1σ: a priori → estimated (ρ: correlated in time, σ ×)",
+                       "calibration (± 1σ)"], rows,
                       {2, 3, 4, 5, 6})
 
 

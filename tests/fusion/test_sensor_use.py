@@ -30,7 +30,8 @@ def _use(tid: str, n: int, sigma_range: float, rejected_az: int, gate_rows: int,
     res = np.full((m, 6), np.nan)
     res[:, 0] = rng.normal(0.0, sigma_range, m) + (1.0 if tid == "T1" else -1.0)
     res[:, 1:3] = rng.normal(0.0, 1e-4, (m, 2))
-    batch = SimpleNamespace(sensor=sensor, model=np.full(m, SPHERICAL), z=z)
+    batch = SimpleNamespace(sensor=sensor, model=np.full(m, SPHERICAL), z=z,
+                            t=np.arange(m) * 0.05, sigma=np.full((m, 6), 1.0))
     result = SimpleNamespace(batch=batch, used=used, dof=np.full(m, 3), res=res,
                              noise={(0, 0): sigma_range, (0, 1): 1e-4, (0, 2): 1e-4})
     rejected = np.zeros((n, 4), bool)
