@@ -166,8 +166,9 @@ RHO_MAX = 0.95
 def lag_correlation(t: np.ndarray, u: np.ndarray, use: np.ndarray) -> float:
     """Lag-1 correlation (dimensionless) of the normalised residuals u (N,) of consecutive
     rows (times t (N,) s ascending) no more than 1.5 median steps apart, over the rows
-    ``use`` (N,) bool: ``sum u_k u_k+1 / sqrt(sum u_k^2 sum u_k+1^2)``; 0 with fewer than
-    ``MIN_ROWS`` such pairs."""
+    ``use`` (N,) bool: ``sum v_k v_k+1 / sqrt(sum v_k^2 sum v_k+1^2)`` with ``v`` the residuals
+    less their mean (a constant bias, a registration's business, is no correlation in time);
+    0 with fewer than ``MIN_ROWS`` such pairs."""
     idx = np.flatnonzero(use & np.isfinite(u))
     if idx.size < MIN_ROWS:
         return 0.0
@@ -176,7 +177,8 @@ def lag_correlation(t: np.ndarray, u: np.ndarray, use: np.ndarray) -> float:
     if pos.size == 0:
         return 0.0
     ok = (dt > 0) & (dt <= 1.5 * np.median(pos))
-    a, b = u[idx[:-1][ok]], u[idx[1:][ok]]
+    v = u[idx] - np.mean(u[idx])           # a constant bias is not a correlation in time
+    a, b = v[:-1][ok], v[1:][ok]
     if a.size < MIN_ROWS:
         return 0.0
     den = np.sqrt(np.sum(a * a) * np.sum(b * b))
