@@ -6,9 +6,12 @@ estimates the sensor's noise from its own residuals. The summary gives the senso
 (row and component counts summed over the objects) and one noise and bias per component,
 combined over the objects:
 
-* ``noise.<component>.estimated``: the pooled sigma ``sqrt(sum_k n_k s_k^2 / sum_k n_k)`` of the
-  objects' estimates ``s_k`` weighted by the used components ``n_k`` of each (the root mean
-  square over all used rows when each object's estimate is its rows' RMS);
+* ``noise.<component>.estimated``: the median of the objects' estimates ``s_k`` weighted by the
+  used components ``n_k`` of each (the estimate that the objects holding half the sensor's used
+  rows or more agree with): a sensor's noise is one, whatever it saw, and an object that holds
+  rows of several things (residuals of kilometres on a few dozen rows) says more about that
+  object than about the sensor, so it does not decide the sensor's noise nor raise a unit
+  warning (``by_object`` still shows it);
 * ``bias.<component>.median_residual``: the median of the used residuals of every object
   together;
 * ``noise.<component>.correlation``: the lag-1 correlation of the sensor's normalised final
@@ -71,16 +74,18 @@ def _component_stats(use: ObjectUse
 
 
 def _pooled(parts: Sequence[tuple[float | None, np.ndarray]]) -> float | None:
-    """sqrt(sum n s^2 / sum n) over (sigma s, residuals of n rows); None without any."""
+    """The median of the sigmas s weighted by the rows n of each (sigma s, residuals of n
+    rows): the smallest s whose objects, with those of smaller s, hold at least half the rows
+    (the plain median of the sigmas when no object used a row); None without any."""
     n = np.array([r.size for s, r in parts if s is not None and np.isfinite(s)], float)
     s = np.array([s for s, _ in parts if s is not None and np.isfinite(s)], float)
     if s.size == 0:
         return None
-    if s.size == 1:
-        return float(s[0])
     if n.sum() == 0:
-        return float(np.sqrt(np.mean(s ** 2)))
-    return float(np.sqrt(np.sum(n * s ** 2) / n.sum()))
+        n = np.ones_like(s)
+    order = np.argsort(s, kind="stable")
+    cum = np.cumsum(n[order])
+    return float(s[order][np.searchsorted(cum, 0.5 * cum[-1])])
 
 
 def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:

@@ -53,9 +53,9 @@ def test_counts_are_summed_and_noise_pooled_over_the_objects():
     assert out["n_partly_rejected"] == 4 + 7
     assert out["n_components_rejected"] == {"range": 3, "azimuth": 4 + 7 + 3, "elevation": 3,
                                             "range_rate": 0}
-    # pooled over the used ranges: sqrt((298 * 3^2 + 99 * 9^2) / 397), not the last (9 m)
-    assert out["noise"]["range"]["estimated"] == pytest.approx(
-        np.sqrt((298 * 9.0 + 99 * 81.0) / 397))
+    # the row-weighted median of the objects' estimates: T1's 3 m (298 of 397 rows), not
+    # the last object's 9 m
+    assert out["noise"]["range"]["estimated"] == 3.0
     assert out["noise"]["range"]["apriori"] == 5.0
     pooled = np.r_[a.result.res[:298, 0], b.result.res[:99, 0]]
     assert out["bias"]["range"]["median_residual"] == pytest.approx(np.median(pooled))
@@ -73,3 +73,18 @@ def test_one_object_gives_its_own_figures_and_no_by_object():
     assert out["n_used"] == 50 and out["n_partly_rejected"] == 1
     assert out["noise"]["range"]["estimated"] == 2.0
     assert "by_object" not in out
+
+
+def test_an_object_of_mixed_rows_does_not_decide_the_sensors_noise():
+    """Autoferry-like: three objects whose lidar ranges fit to 1 m, and two small objects that
+    hold rows of several things (kilometres of residual): the sensor's noise is 1 m, not the
+    row-weighted RMS (some 800 m, a unit warning's worth)."""
+    from rangeproc.fusion.sensor_use import _pooled
+
+    parts = [(0.93, np.zeros(183)), (0.68, np.zeros(110)), (1.14, np.zeros(44)),
+             (2878.0, np.zeros(26)), (1173.0, np.zeros(24))]
+    assert _pooled(parts) == 0.93
+    rms = np.sqrt(sum(p[1].size * p[0] ** 2 for p in parts) / sum(p[1].size for p in parts))
+    assert rms > 500.0                      # what the mean of the variances would have said
+    assert _pooled([(2.0, np.zeros(0)), (4.0, np.zeros(0)), (9.0, np.zeros(0))]) == 4.0
+    assert _pooled([(None, np.zeros(3))]) is None
