@@ -17,7 +17,14 @@ import numpy as np
 
 from rangeproc.fusion.batch import SensorRows
 from rangeproc.parallel import thread_map
-from rangeproc.tracking.objects import Objects, Segment, as_batch, overlaps, spread
+from rangeproc.tracking.objects import (
+    Objects,
+    Segment,
+    as_batch,
+    overlaps,
+    same_sensor_conflict,
+    spread,
+)
 from rangeproc.tracking.relay import BRIDGE_SECONDS, MIN_FIT_SHARE, SCORED_ROWS
 from rangeproc.tracking.score import segment_score
 
@@ -124,10 +131,12 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
            ) -> tuple[Segment, Segment]:
     """Two segments from ``seg``: its rows [:k_rows] and [k_rows:]."""
     parts = []
-    for sel in (seg.rows[:k_rows], seg.rows[k_rows:]):
+    for part in (slice(None, k_rows), slice(k_rows, None)):
+        sel = seg.rows[part]
         t = rows.t[sel]
         parts.append(Segment(new_id(), seg.sensor, sel, seg.track, float(t[0]), float(t[-1]),
-                             bool(np.isfinite(rows.z[sel, 0]).mean() > 0.5), seg.plot))
+                             bool(np.isfinite(rows.z[sel, 0]).mean() > 0.5), seg.plot,
+                             None if seg.scans is None else seg.scans[part]))
     return parts[0], parts[1]
 
 
@@ -172,11 +181,7 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
 
 
 def conflicts(pending: list[Segment]) -> list[tuple[int, int]]:
-    """Pairs of pending segments of one sensor overlapping in time."""
-    out = []
-    for a in range(len(pending)):
-        for b in range(a + 1, len(pending)):
-            sa, sb = pending[a], pending[b]
-            if sa.sensor == sb.sensor and sa.t0 <= sb.t1 and sb.t0 <= sa.t1:
-                out.append((a, b))
-    return out
+    """Pairs of pending segments that cannot share an object: of one sensor, overlapping in
+    time (``objects.same_sensor_conflict``)."""
+    return [(a, b) for a in range(len(pending)) for b in range(a + 1, len(pending))
+            if same_sensor_conflict(pending[a], pending[b])]

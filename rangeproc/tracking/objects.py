@@ -40,6 +40,10 @@ QUICK_ROWS_PER_SENSOR = 5_000
 #: Rows of a quick trajectory's process-noise search (q is a property of the motion; the
 #: full estimate searches up to ``estimation.tuning.MAX_SEARCH_ROWS``).
 QUICK_Q_SEARCH_ROWS = 2_000
+#: Two plot tracks of one sensor that hold plots of more scans in common than this follow
+#: two objects (an object gives one plot per scan); up to this many, they may be one object
+#: (:func:`same_sensor_conflict`).
+MAX_SHARED_SCANS = 1
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,7 +52,8 @@ class Segment:
     :class:`SensorRows` (time order); ``track`` the file's track_id hint (-1 for plots);
     ``t0``, ``t1`` (s); ``has_range``: it can start a track alone; ``plot``: a track of the
     plot tracker (its rows are re-associated one by one at the end, ``tracking.synthesis``
-    step 5)."""
+    step 5); ``scans``: for a plot track, the scan number of each row (``rows``' shape;
+    ``tracking.plot_tracker.PlotTiming.scan``), else None."""
 
     id: int
     sensor: int
@@ -58,6 +63,7 @@ class Segment:
     t1: float
     has_range: bool
     plot: bool = False
+    scans: np.ndarray | None = None
 
 
 def object_track(result: FusionResult) -> ObjectTrack:
@@ -188,8 +194,24 @@ def as_batch(rows: SensorRows, sensor_ids: tuple[str, ...], sensor: int) -> Meas
                             rows.track, sensor_ids)
 
 
+def same_sensor_conflict(a: Segment, b: Segment) -> bool:
+    """True when segments ``a`` and ``b`` cannot follow one object: they are of one sensor
+    and overlap in time, unless both are plot tracks holding plots of at most
+    ``MAX_SHARED_SCANS`` common scans. A sensor sees an object once at a time, and a scanning
+    radar detects it once per scan; but a plot track that lost its object coasts on for a
+    few scans and may take a stray plot in its widening gate while the tracker has started a
+    new track on the object: the two overlap in time, yet share only the stray plot's scan.
+    Which plot of such a scan is the object's is settled plot by plot later
+    (``tracking.reassociation``: one plot per object and scan)."""
+    if a.sensor != b.sensor or a.t0 > b.t1 or b.t0 > a.t1:
+        return False
+    if a.scans is None or b.scans is None:
+        return True
+    return np.intersect1d(a.scans, b.scans).size > MAX_SHARED_SCANS
+
+
 def member_conflict(objects: Objects, name: str, seg: Segment,
-                     segs_of: Mapping[str, list[Segment]]) -> bool:
-    """True when the object already holds a segment of the same sensor overlapping ``seg``."""
-    return any(o.sensor == seg.sensor and o.t0 <= seg.t1 and seg.t0 <= o.t1
-               for o in segs_of.get(name, []))
+                    segs_of: Mapping[str, list[Segment]]) -> bool:
+    """True when the object already holds a segment in conflict with ``seg``
+    (:func:`same_sensor_conflict`)."""
+    return any(same_sensor_conflict(o, seg) for o in segs_of.get(name, []))

@@ -14,7 +14,8 @@
    constant bias tolerated). A link is a candidate when it scores positive and most of the
    segment's rows fit (``MIN_FIT_SHARE``; the links and splits are ``tracking.links``).
    The best global assignment of pending segments
-   to objects, two segments of one sensor overlapping in time never sharing an object, is the
+   to objects, two segments of one sensor overlapping in time never sharing an object
+   (plot tracks of at most one common scan excepted: ``objects.same_sensor_conflict``), is the
    hypothesis search of ``tracking.hypotheses`` (its best and runner-up scores are reported).
    Objects that gained segments are re-estimated from all their rows, and the scoring is
    repeated (scores cached per object version), so an object grows across sensors until no
@@ -158,10 +159,10 @@ def sensor_segments(sensor: int, rows: SensorRows
     timing = None
     has_range_row = np.isfinite(rows.z[:, 0])
 
-    def add(sel: np.ndarray, track: int, plot: bool = False) -> None:
+    def add(sel: np.ndarray, track: int, scans: np.ndarray | None = None) -> None:
         t = rows.t[sel]
         out.append(Segment(len(out), sensor, sel, track, float(t[0]), float(t[-1]),
-                           bool(has_range_row[sel].mean() > 0.5), plot))
+                           bool(has_range_row[sel].mean() > 0.5), scans is not None, scans))
 
     plots = rows.track < 0
     if plots.any():
@@ -190,7 +191,7 @@ def sensor_segments(sensor: int, rows: SensorRows
                                              planar, timing.stamp_sigma))
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
-                add(ranged[label == k], -1, plot=True)
+                add(ranged[label == k], -1, timing.scan[label == k])
             timing = (ranged, timing, stationary_returns(p, R, timing.scan, planar))
     return out, clutter, angle_plots, timing
 
