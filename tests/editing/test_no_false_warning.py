@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pymap3d
-import pytest
 
 from conftest import describe, invoke
 from rangeproc.config import SensorSettings
