@@ -4,8 +4,8 @@ A hypothesis assigns every segment to one object or to none. Its score is the su
 chosen links' scores (``tracking.score``: log-likelihood ratios, so "none" scores 0). Two
 segments of one sensor that overlap in time cannot belong to the same object (a sensor sees an
 object once at a time; plot tracks sharing at most one scan excepted, see
-``tracking.objects.same_sensor_conflict``), and a segment may be allowed only some objects (gates: a link is a
-candidate only when its score is positive).
+``tracking.objects.same_sensor_conflict``), and a segment may be allowed only some objects
+(gates: a link is a candidate only when its score is positive).
 
 Search: track-oriented and best-first (A*): segments are decided in order of their start
 time; a partial hypothesis is expanded by every admissible choice of the next segment, and
