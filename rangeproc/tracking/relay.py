@@ -39,8 +39,8 @@ def stitch(objects: Objects, anchored: list[str], discovered: list[str],
     that object's trajectory carried across it (positive score, ``MIN_FIT_SHARE`` of the
     rows). Joins are made best score first, each only when the two groups hold no segments of
     one sensor overlapping in time (``objects.same_sensor_conflict``; greedy stitching: where a
-    formation splits, the better continuation takes the track and the other one is then excluded). Returns the discovered
-    objects left."""
+    formation splits, the better continuation takes the track and the other one is then
+    excluded). Returns the discovered objects left."""
     names = [*anchored, *discovered]
     spans = {k: _span(objects, k) for k in names if k in objects.tracks}
     pair_score: dict[tuple[str, str], float] = {}
