@@ -116,3 +116,28 @@ def test_the_sample_rows_add_up(sample_run):
     summary = json.loads((sample_run.out_dir / "summary.json").read_text())
     assert summary["warnings"] == []
     _adds_up(summary)
+
+
+def test_a_plot_feed_losing_plots_to_no_object_is_its_normal_lot():
+    """A radar of plots (no track_id) whose plots of objects no other sensor follows fit no
+    object: no line while it contributes; a tracked feed losing as many rows, or a plot feed
+    contributing nothing, still gets one."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from rangeproc.stages.accounting import accounting_lines
+
+    fate = np.array(["used"] * 880 + ["no object fits"] * 120, dtype=object)
+    sensor = SimpleNamespace(id="LIDAR", kind="radar", file=Path("LIDAR.csv"), site=None)
+    cfg = SimpleNamespace(sensors=(sensor,))
+
+    def lines(track_id, f=fate):
+        logs = {"LIDAR": SimpleNamespace(track_id=track_id)}
+        return list(accounting_lines(cfg, {"LIDAR": f}, logs))
+
+    assert lines(None) == []
+    assert len(lines(np.zeros(1000, dtype=np.int64))) == 1
+    nothing = np.array(["no object fits"] * 1000, dtype=object)
+    assert len(lines(None, nothing)) == 1 and "contributes nothing" in lines(None, nothing)[0]

@@ -22,7 +22,10 @@ more than :data:`LOSS_FRACTION` of its rows for one reason, naming the count, th
 the likely cause (a wrong site, the INS log's span against the sensor's, a clock). Reasons
 said by their own warning (:data:`SAID_ELSEWHERE`) and those that are a plot feed's normal
 lot (:data:`EXPECTED`: clutter, another object's angle-only detections, empty rows) are not
-said again.
+said again. For a plot feed (a file without ``track_id``), plots that fit no object or whose
+track is too short to start one (:data:`PLOT_EXPECTED`) are its normal lot too (the plots
+of objects no other sensor sees, of boats at a quay): they are said only when the sensor
+contributes nothing, where a wrong site, lever arm or unit is the likely cause.
 """
 from __future__ import annotations
 
@@ -44,6 +47,8 @@ LOSS_FRACTION = 0.10
 SAID_ELSEWHERE = frozenset({"duplicate", "repeated stamp", "time", "isolated"})
 #: Fates that are a plot feed's normal lot, never a loss worth a line.
 EXPECTED = frozenset({"no measurement", "clutter", "angle-only plot"})
+#: Fates that are a plot feed's normal lot besides (module docstring).
+PLOT_EXPECTED = frozenset({"no object fits", "segment too short to start an object"})
 USED, NO_MEASUREMENT, NO_PLATFORM, NOT_STARTED, GATE = (
     "used", "no measurement", "no platform geometry", "not started", "gate")
 #: The likely cause of each loss, for the line.
@@ -194,7 +199,9 @@ def accounting_lines(cfg: Config, fates: Mapping[str, np.ndarray],
         kinds, counts = np.unique(fate.astype(str), return_counts=True)
         n = dict(zip(kinds.tolist(), counts.tolist()))
         nothing = n.get(USED, 0) == 0
-        quiet = SAID_ELSEWHERE if nothing else SAID_ELSEWHERE | EXPECTED
+        plots = logs[s.id].track_id is None
+        quiet = (SAID_ELSEWHERE if nothing else
+                 SAID_ELSEWHERE | EXPECTED | (PLOT_EXPECTED if plots else frozenset()))
         losses = sorted(((v, k) for k, v in n.items() if k != USED and k not in quiet),
                         reverse=True)
         if not losses or (not nothing and losses[0][0] <= LOSS_FRACTION * fate.size):
