@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -208,10 +210,47 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
 
 def plausibility(cfg: Config, sensor_summary: dict[str, dict],
                  logs: Mapping[str, SensorLog]) -> None:
-    """The lines of stated sigmas far from the noise the data show: the noise each sensor's
-    summary pools over every object it sees (``fusion.sensor_use``), of the components its
-    file measures (``logs``, the screened logs by id)."""
+    """The lines of stated sigmas far from the noise the data show, of the components each
+    sensor's file measures (``logs``, the screened logs by id): judged on the noise of the
+    object that agrees best with the stated sigma (:func:`most_agreeing_noise`)."""
     for sen in cfg.sensors:
-        if (line := stated_sigma_line(sen, sensor_summary[sen.id].get("noise") or {},
-                                      absent_columns(logs[sen.id]))):
+        noise = most_agreeing_noise(sensor_summary[sen.id])
+        if (line := stated_sigma_line(sen, noise, absent_columns(logs[sen.id]))):
             log.warning("%s", line)
+
+
+#: An object's own noise estimate speaks for the sensor in the sigma check with at least
+#: this many of the sensor's rows used.
+MIN_OBJECT_ROWS = 20
+
+
+def most_agreeing_noise(entry: Mapping[str, Any]) -> dict[str, dict]:
+    """A sensor summary entry's ``noise`` with each component's estimate replaced by the one,
+    among the summary's and those of the objects with at least ``MIN_OBJECT_ROWS`` rows used
+    (``by_object``), nearest the stated sigma in ratio; None (no judgement) where the objects
+    with an estimate hold under half the sensor's used rows. A sigma in the wrong unit is wrong
+    for every object the sensor sees; an object that holds rows of several things (residuals
+    of kilometres) says nothing about the sensor's unit, and no longer raises the line where
+    another object's rows fit the stated sigma or most rows went to objects too short to
+    estimate a noise from."""
+    noise = {c: dict(v) for c, v in (entry.get("noise") or {}).items()}
+    objects = entry.get("by_object") or {}
+    for c, v in noise.items():
+        held = sum(o.get("n_used", 0) for o in objects.values()
+                   if (o.get("noise") or {}).get(c) is not None)
+        if objects and held < 0.5 * sum(o.get("n_used", 0) for o in objects.values()):
+            v["estimated"] = None
+    for obj in objects.values():
+        if obj.get("n_used", 0) < MIN_OBJECT_ROWS:
+            continue
+        for c, est in (obj.get("noise") or {}).items():
+            v = noise.get(c)
+            if v is None or est is None or not v.get("apriori") or not est > 0:
+                continue
+            now = v.get("estimated")
+            if now is None:                          # too few rows estimated: no judgement
+                continue
+            if not now > 0 or (abs(math.log(est / v["apriori"]))
+                                              < abs(math.log(now / v["apriori"]))):
+                v["estimated"] = est
+    return noise

@@ -162,3 +162,32 @@ def test_a_sensor_is_judged_on_the_noise_of_all_its_rows():
     assert both["azimuth"]["estimated"] == 0.009       # the rows' majority's estimate
     assert stated_sigma_line(s, both) is None                         # 5.8x: within 10x
     assert stated_sigma_line(s, noise([(100, 0.0028)])) is not None   # 19x alone
+
+
+def test_a_sigma_is_judged_on_the_object_that_agrees_best():
+    """The objects a radar's rows went to: one fits its stated 4.4 m, two hold rows of several
+    things (kilometres): no line. Every object 1000x off (a unit slip): the line stays."""
+    from rangeproc.stages.products import most_agreeing_noise
+
+    s = SensorSettings(id="RADAR", kind="radar", file=Path("RADAR.csv"), angle_unit="deg",
+                       platform="FERRY", sigma={"range": 4.4})
+    entry = {"noise": {"range": {"unit": "m", "apriori": 4.4, "estimated": 5080.0}},
+             "by_object": {"T1": {"n_used": 60, "noise": {"range": 3.9}},
+                           "O1": {"n_used": 90, "noise": {"range": 5080.0}},
+                           "O2": {"n_used": 5, "noise": {"range": 4.4}},
+                           "O3": {"n_used": 80, "noise": {"range": 7200.0}}}}
+    assert stated_sigma_line(s, entry["noise"]) is not None        # the pooled estimate
+    noise = most_agreeing_noise(entry)
+    assert noise["range"]["estimated"] == 3.9 and stated_sigma_line(s, noise) is None
+    assert entry["noise"]["range"]["estimated"] == 5080.0           # the summary untouched
+    slip = {"noise": {"range": {"unit": "m", "apriori": 4.4, "estimated": 4400.0}},
+            "by_object": {"T1": {"n_used": 60, "noise": {"range": 4300.0}},
+                          "O1": {"n_used": 90, "noise": {"range": 4500.0}}}}
+    assert stated_sigma_line(s, most_agreeing_noise(slip)) is not None
+    # most rows in objects too short to estimate a noise from: no judgement
+    few = {"noise": {"range": {"unit": "m", "apriori": 4.4, "estimated": 5080.0}},
+           "by_object": {"O3": {"n_used": 41, "noise": {"range": 5080.0}},
+                         "T1": {"n_used": 92, "noise": {"range": None}},
+                         "O1": {"n_used": 5, "noise": {"range": None}}}}
+    assert most_agreeing_noise(few)["range"]["estimated"] is None
+    assert stated_sigma_line(s, most_agreeing_noise(few)) is None
