@@ -105,13 +105,15 @@ def _nearest_row_gap(grid_t: np.ndarray, t_used: np.ndarray) -> np.ndarray:
 
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
                    rate_hz: float, max_bridge: float = 0.0,
-                   stated: np.ndarray | None = None) -> TrackEstimate:
+                   stated: np.ndarray | None = None,
+                   reference_var: float = 0.0) -> TrackEstimate:
     """The smoothed state on the output grid, with geodetic position and n_sensors; gaps
     between spans up to ``max_bridge`` s are filled by the least-squares fit of
     ``fusion.bridge``; epochs where the object's own rows reject the trajectory are left out
     (``fusion.support``; ``stated`` (S, 3): each sensor's stated sigmas of its first three
     components, ``fusion.support.position_rows``); with the achievable 1-sigma position of
-    every epoch (``fusion.achievable``)."""
+    every epoch (``fusion.achievable``); ``reference_var`` (m^2) is added to the horizontal
+    position variance of every epoch (``fusion.reference_point``)."""
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -119,6 +121,10 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
+    if reference_var > 0.0:                             # where the reference point can be
+        P = P.copy()
+        P[:, 0, 0] += reference_var
+        P[:, 1, 1] += reference_var
     achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
     achievable[~filled] = achievable_sigma(result)
     # none where its own rows reject it

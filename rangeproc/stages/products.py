@@ -21,6 +21,7 @@ from rangeproc.fusion.calibration_summary import calibration_summary, time_offse
 from rangeproc.fusion.centralised import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.fusion.reference_point import reference_variance
 from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
 from rangeproc.results import SensorResiduals, TrackEstimate
@@ -148,12 +149,15 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     sensors' summary entries (``sensor_summary``, by id) and returns the objects' entries."""
     sensor_ids = tuple(s.id for s in cfg.sensors)
     stated = stated_position_sigma(cfg.sensors)
+    radar = np.array([s.kind == "radar" for s in cfg.sensors])
     tracks, residuals, target_summary = [], [], {}
     uses: dict[int, list[ObjectUse]] = {}
+    reference = {}
     for tid, result in fused:
+        reference[tid] = reference_variance(result.batch, result.noise, stated, radar)
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
-                               stated=stated)
+                               stated=stated, reference_var=reference[tid])
         tracks.append(track)
         for i in np.unique(result.batch.sensor):
             i = int(i)
@@ -164,6 +168,7 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         target_summary[tid] = _target_summary(track, result, settings)
+        target_summary[tid]["reference_sigma_m"] = float(np.sqrt(reference[tid]))
         tick(1, tid)
     for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
         sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))

@@ -1,0 +1,60 @@
+"""Where an object measured by plots is: the spread of its reference point about the returns.
+
+A radar or lidar that reports plots (rows without ``track_id``) of an extended object (a boat,
+a ship) returns the centroid of what it sees of the hull, not the point the user's reference
+measures (a GNSS antenna somewhere on the hull): the offset changes slowly with the aspect and
+does not average out, and the smoother, which follows the returns, cannot see it. A user who
+states a sensor's sigma as the spread of its plots about the reference (as the contract asks:
+the 1-sigma error of a row) states that offset too, while the noise rangeproc estimates from
+the residuals about the smoothed track holds only what the track does not absorb. Their
+difference is the reference point's spread about the returns:
+
+    v_i = ( max(0, s_r^2 - e_r^2) + R_i^2 max(0, s_a^2 - e_a^2) ) / 2
+
+per horizontal axis (m^2), for each plot sensor ``i`` of the object with stated range and
+azimuth sigmas ``s_r`` (m), ``s_a`` (rad), estimated noise ``e_r``, ``e_a`` and median range
+``R_i`` (m); the range term lies along the line of sight and the azimuth term across it, so
+each axis of an unknown heading gets half of both. The offset is one for every sensor (one
+hull), and each ``v_i`` estimates it; a sensor whose estimated noise exceeds its stated sigma
+(rows of several things, a noise burst) gives 0 and says nothing of it. The largest ``v_i`` is
+taken (a sigma too small is worse than one too large) and added to the horizontal position
+variance of every output epoch. Objects with GPS rows or rows of tracked instruments
+(``track_id``) get nothing: their position is that of the point those sensors measure, and a
+sensor whose stated sigma is its noise (the simulator's, a calibrated tracking radar's)
+gives 0.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.models.measurement import AZIMUTH, CARTESIAN, SPHERICAL
+
+#: The range component of a SPHERICAL row.
+RANGE = 0
+
+
+def reference_variance(batch: MeasurementBatch, noise: dict[tuple[int, int], float],
+                       stated: np.ndarray, radar: np.ndarray) -> float:
+    """The horizontal reference-point variance (m^2 per axis, module docstring) of the object
+    whose rows are ``batch``, with the estimated noise per (sensor index, component) ``noise``
+    and the stated sigmas ``stated`` (S, 3) (range m, azimuth rad, elevation rad for a radar);
+    ``radar`` (S,) bool: the sensors of kind radar (plots with range). 0 for an object with
+    GPS or tracked-instrument rows, or without a radar's plots."""
+    if np.any(batch.model == CARTESIAN):
+        return 0.0
+    ranged = ((batch.model == SPHERICAL) & np.isfinite(batch.z[:, RANGE])
+              & radar[batch.sensor])
+    if np.any(ranged & (batch.track >= 0)) or not ranged.any():
+        return 0.0
+    best = 0.0
+    for i in np.unique(batch.sensor[ranged]):
+        i = int(i)
+        s_r, s_a = stated[i, RANGE], stated[i, AZIMUTH]
+        e_r, e_a = noise.get((i, RANGE)), noise.get((i, AZIMUTH))
+        if None in (e_r, e_a) or not (np.isfinite(s_r) and np.isfinite(s_a)):
+            continue
+        r_med = float(np.median(batch.z[ranged & (batch.sensor == i), RANGE]))
+        v = 0.5 * (max(0.0, s_r**2 - e_r**2) + r_med**2 * max(0.0, s_a**2 - e_a**2))
+        best = max(best, v)
+    return float(best)
