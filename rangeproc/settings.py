@@ -226,7 +226,7 @@ class ProcessingSettings:
     """Optional ``[processing]`` section (rangeproc's own; every field has a working default).
 
     Each field's declaration (its ``key(...)``) gives its meaning, unit and bounds; the
-    estimator (``fusion.centralised.EstimatorSettings``) reads these fields by name.
+    estimator (``fusion.estimator_types.EstimatorSettings``) reads these fields by name.
     """
 
     gate_probability: float = key(

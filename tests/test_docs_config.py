@@ -19,7 +19,7 @@ import pytest
 from rangeproc.config import _Validator, load_config
 from rangeproc.config_reference import config_reference_markdown
 from rangeproc.errors import ConfigError
-from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.keys import declaration, declaration_problems, key, key_fields
 from rangeproc.settings import (Config, Geodetic, InitialState, OutputSettings, ProcessingSettings,
                                 SensorSettings, StationSettings, TargetSettings)

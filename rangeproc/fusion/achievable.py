@@ -25,7 +25,7 @@ import numpy as np
 from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
 from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
 from rangeproc.models.motion import N_KINEMATIC
 

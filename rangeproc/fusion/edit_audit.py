@@ -27,7 +27,7 @@ from rangeproc.fusion.edit_table import (
     MIN_SPREAD_FRACTION,
     REJECTED,
 )
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.models.measurement import N_COMPONENTS
 
 #: Most rejected points listed in the summary and on the page (the rest are in edits.parquet).

@@ -47,7 +47,7 @@ import pandas as pd
 from rangeproc.fusion.noise import BURST, HUBER, HUBER_K
 from rangeproc.editing.record import EditRecord
 from rangeproc.estimation.residuals import smoothed_residuals
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.io.logs import SensorLog
 from rangeproc.models.measurement import COMPONENTS, N_COMPONENTS
 from rangeproc.settings import ANGLE_COMPONENTS, ANGLE_TO_RADIANS

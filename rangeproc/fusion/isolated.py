@@ -22,7 +22,7 @@ import pandas as pd
 from rangeproc.config import Config
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
 from rangeproc.fusion.agreement import FarSensor
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.io.logs import SensorLog
 
 #: ``reason`` of the rows of an object left out.

@@ -84,7 +84,7 @@ def reversed_prior(t: float, x: np.ndarray, P: np.ndarray) -> Prior:
 
 
 def forward_in_time(result):
-    """A :class:`~rangeproc.fusion.centralised.FusionResult` of time-reversed rows turned
+    """A :class:`~rangeproc.fusion.estimator_types.FusionResult` of time-reversed rows turned
     back: epochs ascending in ``t``, velocities and their covariances' signs restored, rows
     in forward order (its batch with the sigmas and values the reversed run used), rate
     residuals negated back; one span over its rows."""

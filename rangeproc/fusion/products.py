@@ -7,7 +7,7 @@ from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.achievable import achievable_sigma
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.support import supported
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rangeproc.config import SensorSettings
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.noise import correlation_discount, lag_correlation
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals

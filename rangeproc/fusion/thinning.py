@@ -194,7 +194,7 @@ def carry_to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: 
     The full rows get the refraction and the calibration found so far, their residuals at
     the carried track, and the gate's verdict (the thinned filter's for its own rows; for
     the others the one-component gate with the noise estimated so far, ``noise``).
-    ``settings``: the estimator's (``fusion.centralised.EstimatorSettings``: its
+    ``settings``: the estimator's (``fusion.estimator_types.EstimatorSettings``: its
     ``processing``, ``refraction``, ``calibration``, ``q_window`` and ``q_grid``); ``gate``
     (7,) the chi-square thresholds.
 

@@ -42,7 +42,8 @@ from rangeproc.evaluate.truth import geodetic_to_range
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.calibration_summary import calibration_summary
-from rangeproc.fusion.centralised import N_PACKED_NODE, FusionResult, fuse_target
+from rangeproc.fusion.centralised import N_PACKED_NODE, fuse_target
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
 from rangeproc.io.writers import write_json, write_parquet
 from rangeproc.models.measurement import SPHERICAL

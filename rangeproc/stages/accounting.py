@@ -36,7 +36,7 @@ import pandas as pd
 
 from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
-from rangeproc.fusion.centralised import FusionResult
+from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.io.logs import SensorLog
 from rangeproc.tracking.synthesis import ANGLE_PLOT, CLUTTER, NO_OBJECT, SHORT
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from rangeproc.config import Config
 from rangeproc.fusion.assemble import Assembled
-from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.tracking.routing import object_rows, stray_points
 

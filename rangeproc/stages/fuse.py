@@ -11,7 +11,8 @@ from rangeproc.config import Config, TargetSettings
 from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.batch import merge
-from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.centralised import fuse_target
+from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.initialise import NoPositionFix, Prior, given_prior
 from rangeproc.fusion.refraction_rows import RefractionSettings
 from rangeproc.fusion.registration import SensorCalibration

@@ -18,7 +18,7 @@ from rangeproc.errors import DataError
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.agreement import FarSensor, far_line, far_sensors, pair_line
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
-from rangeproc.fusion.centralised import EstimatorSettings, FusionResult
+from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
 from rangeproc.fusion.reference_point import reference_variance

@@ -15,7 +15,8 @@ import numpy as np
 
 from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, merge
-from rangeproc.fusion.centralised import EstimatorSettings, FusionResult, fuse_target
+from rangeproc.fusion.centralised import fuse_target
+from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.initialise import NoPositionFix, Prior
 from rangeproc.parallel import thread_map
 from rangeproc.tracking.score import ObjectTrack

@@ -16,7 +16,7 @@ import pandas as pd
 from rangeproc.config import Config, SensorSettings
 from rangeproc.fusion.assemble import Assembled
 from rangeproc.fusion.batch import SensorRows
-from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.tracking.synthesis import Synthesis, synthesise
 

@@ -58,7 +58,7 @@ import numpy as np
 
 from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
 from rangeproc.fusion.batch import SensorRows
-from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map

@@ -13,7 +13,8 @@ from rangeproc.estimation.constraint import (
     norm_update,
 )
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, empty_rows, merge
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_target
+from rangeproc.fusion.centralised import fuse_target
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.models.measurement import CARTESIAN
 from rangeproc.settings import ProcessingSettings
 

@@ -7,7 +7,8 @@ import numpy as np
 
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, MIN_SEARCH_RATE_HZ, search_rows
 from rangeproc.fusion import centralised
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+from rangeproc.fusion.centralised import fuse_span
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.settings import ProcessingSettings
 
 from conftest import gps_line_batch

@@ -9,7 +9,8 @@ import rangeproc.fusion.centralised as centralised
 import rangeproc.fusion.lead_in as lead_in
 from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.batch import SensorRows, empty_rows, merge
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_span, output_grid
+from rangeproc.fusion.centralised import fuse_span, output_grid
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.lead_in import forward_in_time, lead_in_rows, time_reversed
 from rangeproc.estimation.imm_models import CA
 from rangeproc.models.measurement import SPHERICAL, measure_py

@@ -10,7 +10,8 @@ import pytest
 
 from rangeproc.errors import NumericalError
 from rangeproc.fusion import centralised
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+from rangeproc.fusion.centralised import fuse_span
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.settings import ProcessingSettings
 
 from conftest import gps_line_batch

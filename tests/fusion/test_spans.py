@@ -6,7 +6,8 @@ import pytest
 
 from rangeproc.errors import DataError
 from rangeproc.fusion.batch import SensorRows, empty_rows, merge
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_span, fuse_target, span_slices
+from rangeproc.fusion.centralised import fuse_span, fuse_target, span_slices
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 from rangeproc.settings import ProcessingSettings
 

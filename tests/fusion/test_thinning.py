@@ -162,7 +162,8 @@ def _thinned_span(monkeypatch, fail_call: int | None = None, filter_name: str = 
     """A 100 Hz GPS minute, its passes before the last on every 4th row; the run_pass calls."""
     from rangeproc.errors import NumericalError
     from rangeproc.fusion import centralised
-    from rangeproc.fusion.centralised import EstimatorSettings, fuse_span
+    from rangeproc.fusion.centralised import fuse_span
+    from rangeproc.fusion.estimator_types import EstimatorSettings
     from rangeproc.settings import ProcessingSettings
 
     from conftest import gps_line_batch

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rangeproc.fusion.centralised import EstimatorSettings, fuse_target
+from rangeproc.fusion.centralised import fuse_target
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.tracking.objects import object_track
 from rangeproc.tracking.score import score_rows, score_rows_left_out
 from rangeproc.settings import ProcessingSettings

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.fusion.batch import SensorRows, empty_rows
-from rangeproc.fusion.centralised import EstimatorSettings
+from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.models.measurement import CARTESIAN
 from rangeproc.tracking.objects import OBSERVED_GAP_SECONDS, Objects
 from rangeproc.tracking.score import ObjectTrack
