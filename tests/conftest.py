@@ -37,6 +37,22 @@ def invoke(args: list[str]) -> Result:
     return CliRunner().invoke(main, [str(a) for a in args])
 
 
+def compile_fresh_kernels() -> None:
+    """Compile two new numba kernels, as a first run does (the compile notice's tests)."""
+    import numpy as np
+    from numba import njit
+
+    @njit
+    def twice(x):  # type: ignore[no-untyped-def]
+        return 2.0 * x
+
+    @njit
+    def thrice(x):  # type: ignore[no-untyped-def]
+        return 3.0 * x
+
+    assert twice(np.float64(1.0)) == 2.0 and thrice(np.float64(1.0)) == 3.0
+
+
 def copy_sample(dest: Path) -> Path:
     """Copy the bundled sample_data folder (sensor files, scenario.toml, truth.csv) to ``dest``;
     returns ``dest``. Any ``out`` folder in the source is not copied."""

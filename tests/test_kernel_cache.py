@@ -8,10 +8,10 @@ import shutil
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-from numba import njit
 from numba.core import event
+
+from conftest import compile_fresh_kernels
 
 from rangeproc import kernel_cache
 from rangeproc.kernel_cache import (
@@ -121,15 +121,7 @@ def test_the_first_compilation_is_announced_once() -> None:
     said: list[str] = []
     listener = announce_compilation(said.append)
     try:
-        @njit
-        def twice(x):  # type: ignore[no-untyped-def]
-            return 2.0 * x
-
-        @njit
-        def thrice(x):  # type: ignore[no-untyped-def]
-            return 3.0 * x
-
-        assert twice(np.float64(1.0)) == 2.0 and thrice(np.float64(1.0)) == 3.0
+        compile_fresh_kernels()
     finally:
         event.unregister("numba:compile", listener)
     assert len(said) == 1 and "compiling the filter kernels" in said[0]

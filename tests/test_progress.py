@@ -3,6 +3,7 @@ import time
 
 import pytest
 from click.testing import CliRunner
+from conftest import compile_fresh_kernels
 
 from rangeproc.cli import TerminalBars, _clock, main
 from rangeproc.errors import DataError
@@ -52,18 +53,7 @@ def test_quiet_or_not_a_terminal_is_silent():
 
 def _compiling_run(*args, **kwargs):  # type: ignore[no-untyped-def]
     """Stands in for ``pipeline.run``: compiles two fresh kernels (as a first run does)."""
-    import numpy as np
-    from numba import njit
-
-    @njit
-    def twice(x):  # type: ignore[no-untyped-def]
-        return 2.0 * x
-
-    @njit
-    def thrice(x):  # type: ignore[no-untyped-def]
-        return 3.0 * x
-
-    assert twice(np.float64(1.0)) == 2.0 and thrice(np.float64(1.0)) == 3.0
+    compile_fresh_kernels()
     raise DataError("x.csv: stop here")
 
 
