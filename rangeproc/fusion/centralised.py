@@ -27,7 +27,7 @@ Stages (each a function of arrays; numerics in the compiled kernels):
    first registration corrects the rows, q is searched again on them (the first search saw
    the sensors' biases as motion: ``docs/methods/estimators.md``, step 3). When the last
    registration still moves the rows (``SETTLED_SHIFT``), up to ``SETTLING_PASSES`` more
-   passes estimate the noise from a track fit to the corrected rows.
+   passes estimate the noise from a track fit to the corrected rows (``fusion.refinement``).
 """
 from __future__ import annotations
 
@@ -38,16 +38,10 @@ from functools import partial
 
 import numpy as np
 
-from rangeproc.fusion.noise import difference_sigma, residual_sigma
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.imm_models import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
-from rangeproc.estimation.tuning import (
-    local_process_noise,
-    search_rows,
-    start_process_noise,
-)
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
@@ -58,26 +52,11 @@ from rangeproc.fusion.lead_in import (
     reversed_prior,
     time_reversed,
 )
-from rangeproc.fusion.passes import (
-    PassResult,
-    constraint_agrees,
-    corrected_residuals,
-    imm_start,
-    run_pass,
-)
-from rangeproc.fusion.refraction_rows import refraction_corrections
-from rangeproc.fusion.registration import (
-    apply_increments,
-    calibration_covariance,
-    register,
-    row_shift,
-)
-from rangeproc.fusion.thinning import (
-    PassRows,
-    carry_to_every_row,
-    thinned_pass_rows,
-    thinning_stride,
-)
+from rangeproc.fusion.noise import difference_sigma
+from rangeproc.fusion.passes import constraint_agrees, imm_start, run_pass
+from rangeproc.fusion.refinement import PassInputs, Refinement, refine, searched_q
+from rangeproc.fusion.registration import apply_increments, calibration_covariance
+from rangeproc.fusion.thinning import PassRows, thinned_pass_rows, thinning_stride
 from rangeproc.quantiles import chi2_ppf
 
 log = logging.getLogger(__name__)
@@ -86,13 +65,6 @@ log = logging.getLogger(__name__)
 LEAD_IN_MODELS = (CV, CA)
 #: Packed entries of the kinematic 9x9 block (the first of the packed lower triangle).
 N_PACKED_NODE = 45
-#: Rows the registration moves after the last refinement pass by more than this (their
-#: largest RMS shift of one sensor component, in its sigmas, ``registration.row_shift``)
-#: leave that pass's track fit to rows no longer there: every sensor's noise estimated from
-#: its residuals would carry the shift (a late radar's pull on the track read as a clean
-#: theodolite's noise), so up to ``SETTLING_PASSES`` more passes run on the corrected rows.
-SETTLED_SHIFT = 0.1
-SETTLING_PASSES = 2
 
 
 
@@ -239,37 +211,18 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
                             "first row", lead, exc)
     if grid_t is None:
         grid_t = output_grid(float(batch.t[0]), float(batch.t[-1]), rate_hz)
-    full = PassRows.of(batch, grid_t)
-    epoch_t, meas_epoch, grid = full.epoch_t, full.meas_epoch, full.grid
     p, family = settings.processing, settings.family
-    gate = gate_thresholds(p.gate_probability)
     if p.adapt_noise:
         batch = batch.with_sigma(difference_sigma(batch))
-    full = full._replace(batch=batch)
+    full = PassRows.of(batch, grid_t)
     work = thinned_pass_rows(full, grid_t, p.noise_passes)   # the passes before the last one
     if work.kept is not None:
         log.info("long span: %d rows; passes 1 to %d on %d of them (each series thinned evenly,"
                  " by %d at most), the final pass on every row", len(batch), p.noise_passes,
                  len(work.kept), thinning_stride(len(batch), p.noise_passes))
-    started = False                   # from the given prior (it then enters the spline fit)
-    try:
-        if from_prior:
-            raise NoPositionFix("started from the given state")
-        x0, P0 = initial_state(batch, float(epoch_t[0]))
-    except NoPositionFix:
-        if prior is None:
-            raise
-        x0, P0 = prior_at(prior, float(epoch_t[0]))
-        started = True
-    if p.process_noise is not None:
-        q = np.full(len(work.epoch_t), p.process_noise)
-    else:                     # the search decimates every row itself (the same on a long span)
-        q0, q = _searched_q(batch, epoch_t, x0, P0, gate, settings)
-        if work.kept is not None:
-            q = q[np.searchsorted(epoch_t, work.epoch_t)]
-        log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
-                 float(np.median(q)))
-    x_lin = np.empty((0, x0.shape[0]))
+    x0, P0, started = _start_state(batch, float(full.epoch_t[0]), prior, from_prior)
+    gate = gate_thresholds(p.gate_probability)
+    q = _first_q(full, work, x0, P0, gate, settings)
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
     rho = p.maneuver_norm if family.askf else None
@@ -277,147 +230,88 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
     first_pass = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
-                         settings.with_family(imm_models=(), strong_tracking=False), x_lin)
+                         settings.with_family(imm_models=(), strong_tracking=False),
+                         np.empty((0, x0.shape[0])))
     first = first_pass()
     if family.askf and rho is None:
         rho = estimate_norm(first.xs[work.grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
     tick(1, "pass 1")
-    start = imm_start(first, x0, P0) if family.imm_models else (x0, P0)
+    inp = PassInputs(full=full, gate=gate, settings=settings, fix=(x0, P0),
+                     start=imm_start(first, x0, P0) if family.imm_models else (x0, P0))
     # the askf check refines the first pass once more, unconstrained; otherwise the first
     # pass's arrays (track, covariances, residuals: most of a span's memory) are let go as
     # soon as the refinement has moved on from them
     again = [(first, first_pass)] if rho is not None and p.noise_passes > 0 else []
     box = [(first, first_pass)]
     del first
-
-    def refine(box: list[tuple[PassResult, Callable[[], PassResult]]], rho: float | None,
-               tick=tick):
-        """The refinement passes from the pass in ``box`` (taken out of it, with the call
-        that redoes it), constrained to ``rho`` when given."""
-        (out, redo), rows, qq, noise, cal = box.pop(), work, q, {}, None
-        b, q_used, q_next, expanded = rows.batch, q, None, None
-        why = np.zeros(batch.z.shape, dtype=np.int8)
-
-        def every_row():
-            """The last thinned pass carried to every row (module ``fusion.thinning``)."""
-            nonlocal out, redo, b, qq, q_used, q_next, rows, expanded
-            expanded, b, out, before, qq, q_next = carry_to_every_row(
-                full, rows, out, qq, noise, cal, settings, gate)
-            redo = partial(run_pass, before, full.epoch_t, full.meas_epoch, *start, qq, gate,
-                           settings, expanded.xs, rho or 0.0)   # the pass before, every row
-            q_used, rows = qq, full
-
-        def residuals_of(sensors) -> np.ndarray:
-            """``out``'s residuals with those of the rows of ``sensors`` recomputed."""
-            if expanded is None:
-                return corrected_residuals(b, sensors, out, rows.meas_epoch)
-            res = out.res.copy()
-            at = np.flatnonzero(np.isin(b.sensor, list(sensors)))
-            res[at] = expanded.residuals(b, rows.meas_epoch, at)[0]
-            return res
-
-        k, last = 0, p.noise_passes - 1      # last: the final pass's step (settling adds)
-        while k <= last:
-            if rows.kept is not None and k == p.noise_passes - 1:   # the final pass: all rows
-                every_row()
-            elif settings.refraction is not None and k == 0:   # geometry of the first pass
-                b = refraction_corrections(b, out.xs, rows.meas_epoch, settings.refraction)
-                corrected = np.flatnonzero(np.asarray(settings.refraction.surface_n) > 0)
-                out = out._replace(res=residuals_of(corrected))
-            if settings.calibration:
-                cal, dc, rate = register(b, out.xs, out.res, rows.epoch_t, rows.meas_epoch,
-                                         rows.grid, qq, settings.calibration, cal)
-                if dc.any():            # the residuals of the corrected rows, same track
-                    b = apply_increments(b, cal.terms, dc, rate)
-                    moved = [t.sensor for t, d in zip(cal.terms, dc) if d != 0.0]
-                    res_before = out.res
-                    out = out._replace(res=residuals_of(moved))
-                    shift = row_shift(res_before, out.res, b.sigma, b.sensor)
-                    if (k == last and p.adapt_noise and shift > SETTLED_SHIFT
-                            and last < p.noise_passes - 1 + SETTLING_PASSES):
-                        last += 1   # the track was fit to rows since moved: noise anew
-                        log.info("registration moved the rows by %.2g sigma after the last "
-                                 "pass: one more, its noise from the corrected rows", shift)
-                    if k == 0 and p.process_noise is None:   # q anew on the corrected rows
-                        q0, q_next = _searched_q(b, rows.epoch_t, x0, P0, gate, settings)
-                        log.info("registration corrected the rows: q = %.3g m^2/s^5 (maximum "
-                                 "likelihood again)", q0)
-            if p.adapt_noise:
-                sigma, noise, why = residual_sigma(b, out.res, out.hph, out.used)
-                b = b.with_sigma(sigma)
-            if q_next is not None:
-                qq, q_next = q_next, None
-            elif p.process_noise is None and out.em is not None:
-                qq = local_process_noise(rows.epoch_t, out.em, window=settings.q_window,
-                                         ceiling=max(settings.q_grid))
-            log.info("pass %d: median q = %.3g m^2/s^5", k + 2, float(np.median(qq)))
-            # the pass refined here is let go before the next runs (its covariances and
-            # residuals: 0.5 GB of the 2M-row sortie's peak); should the next fail, it is
-            # done again from its inputs (the same values), its residuals taken at the rows
-            # as corrected since
-            resets_before, q_before, redo_before = out.resets, q_used, redo
-            redo = partial(run_pass, b, rows.epoch_t, rows.meas_epoch, *start, qq, gate,
-                           settings, out.xs, rho or 0.0)
-            expanded = out = None
-            try:
-                out = redo()
-                failed = ""
-            except NumericalError as exc:       # the pass before stands (its track is sound)
-                failed = str(exc)
-            q_used = qq
-            tick(1 if k < p.noise_passes else 0, f"pass {k + 2}")
-            if failed or rho is None and out.resets > resets_before:   # it lost the object:
-                # keep the pass before (a constrained pass is judged by constraint_agrees)
-                log.warning("pass %d: %s; the pass it refines is kept", k + 2, failed or (
-                    f"the divergence guard fired {out.resets} times against "
-                    f"{resets_before} in the pass it refines"))
-                out = None
-                out = redo_before()
-                out = out._replace(res=corrected_residuals(
-                    b, range(len(b.sensor_ids)), out, rows.meas_epoch))
-                q_used = q_before
-                if k + 1 < p.noise_passes:
-                    tick(p.noise_passes - k - 1, "")
-                break
-            k += 1
-        if rows.kept is not None:       # stopped on a thinned pass: it is redone on every row
-            every_row()
-            out = redo()
-            why = np.zeros(batch.z.shape, dtype=np.int8)
-        return out, q_used, noise, why, cal
-
-    out, q, noise, why, cal = refine(box, rho)
+    st = refine(inp, box, work, q, rho, tick)
     if again:
-        free = refine(again, None, tick=lambda *a, **k: None)
-        if not constraint_agrees(out, free[0], rho):
-            rho, (out, q, noise, why, cal) = None, free
+        free = refine(inp, again, work, q, None, lambda *a, **k: None)
+        if not constraint_agrees(st.out, free.out, rho):
+            rho, st = None, free
+    return _result(st, full, settings, rho, (float(full.epoch_t[0]), x0, P0) if started
+                   else None)
+
+
+def _start_state(batch: MeasurementBatch, t0: float, prior: Prior | None, from_prior: bool
+                 ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """The state (n,) and covariance (n, n) at the span's first epoch ``t0`` (s): from its
+    first position fixes, or (none there, or ``from_prior``) from ``prior`` moved to ``t0``;
+    True when from the prior (it then enters the spline fit).
+
+    Raises:
+        NoPositionFix: no position fix and no prior.
+    """
+    try:
+        if from_prior:
+            raise NoPositionFix("started from the given state")
+        x0, P0 = initial_state(batch, t0)
+        return x0, P0, False
+    except NoPositionFix:
+        if prior is None:
+            raise
+        x0, P0 = prior_at(prior, t0)
+        return x0, P0, True
+
+
+def _first_q(full: PassRows, work: PassRows, x0: np.ndarray, P0: np.ndarray,
+             gate: np.ndarray, settings: EstimatorSettings) -> np.ndarray:
+    """The first pass's process noise (E,) on ``work``'s epochs (m^2/s^5): the configured
+    one, or the maximum-likelihood search over every row (the same on a thinned span)."""
+    p = settings.processing
+    if p.process_noise is not None:
+        return np.full(len(work.epoch_t), p.process_noise)
+    q0, q = searched_q(full.batch, full.epoch_t, x0, P0, gate, settings)
+    if work.kept is not None:
+        q = q[np.searchsorted(full.epoch_t, work.epoch_t)]
+    log.info("pass 1: q = %.3g m^2/s^5 (maximum likelihood), local median %.3g", q0,
+             float(np.median(q)))
+    return q
+
+
+def _result(st: Refinement, full: PassRows, settings: EstimatorSettings, rho: float | None,
+            spline_prior: tuple[float, np.ndarray, np.ndarray] | None) -> FusionResult:
+    """The span's result from its last refinement pass: the spline fit for the families that
+    ask for it, the calibration's uncertainty added to the output epochs' covariance."""
+    out, family, p = st.out, settings.family, settings.processing
+    epoch_t, meas_epoch, grid = full.epoch_t, full.meas_epoch, full.grid
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
     if family.spline or family.spline_fit:   # Zhou et al.'s post-flight batch spline fit
         from rangeproc.fusion.spline_refine import spline_refine   # scipy.interpolate: 0.1 s
         anomalies = out.knots if out.knots is not None else np.empty(0)
         xs, Ps, res, hph = spline_refine(
-            out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, q, anomalies,
-            p.spline_knot_spacing, (float(epoch_t[0]), x0, P0) if started else None)
-    if cal is not None:         # the calibration's uncertainty is the trajectory's too
-        Ps[grid, :N_PACKED_NODE] += calibration_covariance(cal, epoch_t[grid])
+            out.batch, epoch_t, meas_epoch, xs, Ps, out.used, res, hph, st.q_used, anomalies,
+            p.spline_knot_spacing, spline_prior)
+    if st.cal is not None:         # the calibration's uncertainty is the trajectory's too
+        Ps[grid, :N_PACKED_NODE] += calibration_covariance(st.cal, epoch_t[grid])
     return FusionResult(epoch_t=epoch_t, xs=xs, Ps=Ps, grid=grid, batch=out.batch,
                         meas_epoch=meas_epoch, used=out.used, nis=out.nis, dof=out.dof,
-                        res=res, hph=hph, q=q, noise=noise, n_resets=out.resets,
-                        maneuver_norm=rho, model_prob=out.model_prob, down_weight=why,
+                        res=res, hph=hph, q=st.q_used, noise=st.noise, n_resets=out.resets,
+                        maneuver_norm=rho, model_prob=out.model_prob, down_weight=st.why,
                         model_names=tuple(MODEL_NAMES[c] for c in family.imm_models),
-                        calibration=(cal,) if cal is not None else ())
-
-
-def _searched_q(batch: MeasurementBatch, epoch_t: np.ndarray, x0: np.ndarray, P0: np.ndarray,
-                gate: np.ndarray, settings: EstimatorSettings) -> tuple[float, np.ndarray]:
-    """``estimation.tuning.start_process_noise`` over the span's rows (its epochs
-    ``epoch_t``) with the settings' q grid, divergence guard and search rows."""
-    return start_process_noise(batch, epoch_t, x0, P0, gate, settings.q_grid,
-                               settings.reset_after, settings.reset_inflation,
-                               max_rows=search_rows(float(epoch_t[-1] - epoch_t[0]),
-                                                    settings.q_search_rows))
+                        calibration=(st.cal,) if st.cal is not None else ())
 
 
 def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,

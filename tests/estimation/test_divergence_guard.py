@@ -113,6 +113,7 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
     """A refinement pass that raises (e.g. a non-finite smoothed state) does not end the run
     or reach the output: the pass it refines stands, with a warning."""
     import rangeproc.fusion.centralised as centralised
+    import rangeproc.fusion.refinement as refinement
     from rangeproc.errors import NumericalError
 
     batch = gps_line_batch(np.arange(0.0, 60.0, 0.5), np.random.default_rng(7))
@@ -128,7 +129,8 @@ def test_a_refinement_pass_that_fails_numerically_keeps_the_pass_before(monkeypa
 
     reference = centralised.fuse_target(batch, 10.0, centralised.EstimatorSettings(
         processing=ProcessingSettings(noise_passes=0)))
-    monkeypatch.setattr(centralised, "run_pass", second_fails)
+    monkeypatch.setattr(centralised, "run_pass", second_fails)     # the first pass
+    monkeypatch.setattr(refinement, "run_pass", second_fails)      # the refinement passes
     result = centralised.fuse_target(batch, 10.0, settings)
     assert calls["n"] == 3     # the failed pass ends the refinement; the pass it refines,
     #                            let go while it ran, is done again (test_refine_fallback.py)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS, MIN_SEARCH_RATE_HZ, search_rows
-from rangeproc.fusion import centralised
+from rangeproc.fusion import refinement
 from rangeproc.fusion.centralised import fuse_span
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.settings import ProcessingSettings
@@ -23,13 +23,13 @@ def test_search_rows_is_the_cap_or_the_rate_floor_whichever_is_more():
 
 def test_fuse_span_searches_over_the_floored_row_count(monkeypatch):
     seen = {}
-    real = centralised.start_process_noise
+    real = refinement.start_process_noise
 
     def spy(*args, **kwargs):
         seen["max_rows"] = kwargs["max_rows"]
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(centralised, "start_process_noise", spy)
+    monkeypatch.setattr(refinement, "start_process_noise", spy)
     t = np.arange(0.0, 900.0, 0.5)
     fuse_span(gps_line_batch(t, np.random.default_rng(2)), 1.0,
               EstimatorSettings(processing=ProcessingSettings(noise_passes=0)))

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import rangeproc.fusion.centralised as centralised
+import rangeproc.fusion.refinement as refinement
 from rangeproc.fusion.registration import row_shift
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_scenario
@@ -45,12 +45,12 @@ def runs(tmp_path_factory) -> dict[str, dict]:
     clean = run(_flight(tmp_path_factory.mktemp("clean"), 0.0)).summary
     late_cfg = _flight(tmp_path_factory.mktemp("late"), LATE)
     late = run(late_cfg).summary
-    settling = centralised.SETTLING_PASSES
-    centralised.SETTLING_PASSES = 0          # the noise from the last pass as it was
+    settling = refinement.SETTLING_PASSES
+    refinement.SETTLING_PASSES = 0          # the noise from the last pass as it was
     try:
         unsettled = run(late_cfg).summary
     finally:
-        centralised.SETTLING_PASSES = settling
+        refinement.SETTLING_PASSES = settling
     return {"clean": clean, "late": late, "unsettled": unsettled}
 
 

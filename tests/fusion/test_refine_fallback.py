@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rangeproc.errors import NumericalError
-from rangeproc.fusion import centralised
+from rangeproc.fusion import centralised, refinement
 from rangeproc.fusion.centralised import fuse_span
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.settings import ProcessingSettings
@@ -40,8 +40,9 @@ def test_the_refined_pass_is_done_again_and_kept_when_its_refinement_fails(
             return out._replace(resets=out.resets + 3)
         return out
 
-    monkeypatch.setattr(centralised, "run_pass", spy)
-    with caplog.at_level(logging.WARNING, logger="rangeproc.fusion.centralised"):
+    monkeypatch.setattr(centralised, "run_pass", spy)       # the first pass
+    monkeypatch.setattr(refinement, "run_pass", spy)        # the refinement passes
+    with caplog.at_level(logging.WARNING, logger="rangeproc.fusion.refinement"):
         res = fuse_span(_gps_batch(3), 2.0,
                         EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
     assert "the pass it refines is kept" in caplog.text
@@ -62,7 +63,8 @@ def test_without_a_failure_each_pass_runs_once(monkeypatch):
         calls.append(real(*args, **kwargs))
         return calls[-1]
 
-    monkeypatch.setattr(centralised, "run_pass", spy)
+    monkeypatch.setattr(centralised, "run_pass", spy)       # the first pass
+    monkeypatch.setattr(refinement, "run_pass", spy)        # the refinement passes
     res = fuse_span(_gps_batch(3), 2.0,
                     EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
     assert len(calls) == 3

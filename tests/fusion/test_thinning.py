@@ -161,7 +161,7 @@ def test_a_thinned_run_says_so_and_matches_the_whole_run_within_five_percent(thi
 def _thinned_span(monkeypatch, fail_call: int | None = None, filter_name: str = "ekf"):
     """A 100 Hz GPS minute, its passes before the last on every 4th row; the run_pass calls."""
     from rangeproc.errors import NumericalError
-    from rangeproc.fusion import centralised
+    from rangeproc.fusion import centralised, refinement
     from rangeproc.fusion.centralised import fuse_span
     from rangeproc.fusion.estimator_types import EstimatorSettings
     from rangeproc.settings import ProcessingSettings
@@ -181,7 +181,8 @@ def _thinned_span(monkeypatch, fail_call: int | None = None, filter_name: str = 
             raise NumericalError("injected failure")
         return real(batch, *args, **kwargs)
 
-    monkeypatch.setattr(centralised, "run_pass", spy)
+    monkeypatch.setattr(centralised, "run_pass", spy)       # the first pass
+    monkeypatch.setattr(refinement, "run_pass", spy)        # the refinement passes
     batch = gps_line_batch(np.arange(0.0, 60.0, 0.01), np.random.default_rng(8), noise=3.0,
                            velocity=(100.0, 50.0, -2.0), accel=(1.0, 0.0, 0.0))
     res = fuse_span(batch, 10.0, EstimatorSettings(
