@@ -29,6 +29,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -82,6 +83,8 @@ MAX_NODES = 5000
 #: component is left out (also, before the first solve, its distance from the median of its
 #: sensor component in robust sigmas).
 IRLS_PASSES = 2
+#: Why no term is estimated for an object without GPS or MISTRAM rows.
+NO_REFERENCE = "no absolute reference (GPS or MISTRAM rows of this target)"
 HUBER_K = 3.0
 WILD = 6.0
 PRE_WILD = 8.0
@@ -286,16 +289,12 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     total = previous.applied.copy() if previous is not None else np.zeros(p)
     node_t = _nodes(epoch_t, grid)
     if p == 0:                        # nothing to estimate (e.g. range rates alone)
-        return (Calibration(terms, total, total, np.zeros((0, 0)), (), node_t,
-                            np.zeros((len(node_t), N_NODE, N_NODE))),
-                np.zeros(0), np.zeros((len(batch), 4)))
+        return _unsolved(terms, total, total, total, "", node_t, len(batch))
     has_ref = bool(np.isin(batch.sensor, [i for i, sp in enumerate(specs)
                                           if sp is not None and sp.kind in REFERENCE_KINDS]).any())
     if not has_ref:                   # nothing is estimable: no solve (an undeclared object of
-        why = "no absolute reference (GPS or MISTRAM rows of this target)"   # radars only)
-        return (Calibration(terms, total, np.zeros(p), np.zeros((p, p)), (why,) * p, node_t,
-                            np.zeros((len(node_t), N_NODE, N_NODE))),
-                np.zeros(p) - total, np.zeros((len(batch), 4)))
+        return _unsolved(terms, total, np.zeros(p), total, NO_REFERENCE, node_t,  # radars
+                         len(batch))                                           # only)
     node = nearest_index(node_t, batch.t)
     moving = np.array([bool(sp is not None and sp.moving) for sp in specs], dtype=bool)
     mv_index, rates = axes_rate(batch, moving)
@@ -304,50 +303,24 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
     q_node = np.maximum(q[np.searchsorted(epoch_t, node_t)][1:], 1e-6)
     diag, upper, rhs = process_blocks(node_t, q_node, x_node)
     diag[0] += np.diag(np.repeat([1e-6, 1e-4, 1e-4], 3))      # weak start (m, m/s, m/s^2)
-    s_prior = np.array([PRIOR_SIGMA[t.name] for t in terms])
-    args = (meas_epoch, node, node_t, batch.t, batch.model)
-    geo = (batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots, xs)
-    groups = [np.flatnonzero(batch.sensor == i) for i in np.unique(batch.sensor)]
-    weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
-    dc = np.zeros(p)
-    reason = ["no absolute reference (GPS or MISTRAM rows of this target)"] * p
-    cov = np.zeros((p, p))
-    Xc = np.zeros((len(node_t), N_NODE, p))
-    rate = None
-    for it in range(IRLS_PASSES):
-        Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*args, batch.z, weight, *geo, p,
-                                                    residuals=False)
-        try:
-            S, s, Xc, xb = solve_joint(Nxx + diag, upper, Nxc, Ncc, bx + rhs, bc)
-        except np.linalg.LinAlgError:
-            log.warning("registration skipped: the joint normal matrix is not positive "
-                        "definite (an ill-conditioned track); rows left uncorrected")
-            why = ("registration failed: the joint normal matrix of track and terms is not "
-                   "positive definite (an ill-conditioned track)")
-            return (Calibration(terms, total, total, np.zeros((p, p)), (why,) * p, node_t,
-                                np.zeros((len(node_t), N_NODE, N_NODE))),
-                    np.zeros(p), np.zeros((len(batch), 4)))
-        dc = np.zeros(p)
-        if has_ref and p:
-            reason = _select(S, s_prior, terms, batch.sensor_ids, n_rows)
-            act = [k for k in range(p) if reason[k] == ""]
-            cov = np.zeros((p, p))
-            if act:
-                info = S[np.ix_(act, act)] + np.diag(1.0 / s_prior[act] ** 2)
-                cov[np.ix_(act, act)] = np.linalg.inv(info)
-                dc[act] = cov[np.ix_(act, act)] @ s[act]
-        if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals
-            dx = xb - Xc @ dc
-            post, rate = postfit(*args, *geo, res, dx, dc)
-            weight = _weights(groups, post, batch.sigma, False)
-            del post
-    if rate is None:
-        _, rate = postfit(*args, *geo, res, np.zeros((len(node_t), N_NODE)), np.zeros(p))
+    problem = _Problem(args=(meas_epoch, node, node_t, batch.t, batch.model),
+                       geo=(batch.s, batch.sv, batch.Qr, mv_index, rates, batch.sensor, slots,
+                            xs),
+                       diag=diag, upper=upper, rhs=rhs,
+                       s_prior=np.array([PRIOR_SIGMA[t.name] for t in terms]))
+    try:
+        S, s, Xc, dc, cov, reason, rate = _irls(batch, res, terms, n_rows, problem)
+    except np.linalg.LinAlgError:
+        log.warning("registration skipped: the joint normal matrix is not positive "
+                    "definite (an ill-conditioned track); rows left uncorrected")
+        return _unsolved(terms, total, total, total, "registration failed: the joint normal "
+                         "matrix of track and terms is not positive definite (an "
+                         "ill-conditioned track)", node_t, len(batch))
     estimate = total + dc
     sigma = np.sqrt(np.diag(cov))
     significant = (dc != 0.0) & (np.abs(estimate) > SIGNIFICANCE * sigma)
     applied = np.where(significant, estimate, 0.0)
-    node_cov = consider_covariance(S, s, s_prior, total, applied, Xc)
+    node_cov = consider_covariance(S, s, problem.s_prior, total, applied, Xc)
     for k, term in enumerate(terms):
         if reason[k] == "":
             log.info("registration: %s %s %+.4g +- %.2g %s%s", batch.sensor_ids[term.sensor],
@@ -355,6 +328,68 @@ def register(batch: MeasurementBatch, xs: np.ndarray, res: np.ndarray, epoch_t: 
                      "" if applied[k] else " (not significant: rows not corrected)")
     cal = Calibration(terms, estimate, applied, cov, tuple(reason), node_t, node_cov)
     return cal, applied - total, rate
+
+
+class _Problem(NamedTuple):
+    """The registration's joint least-squares problem at one track: the rows' epoch, node,
+    time and model (``args``), their geometry and term slots (``geo``), the track's process
+    blocks (``diag``, ``upper``, ``rhs``) and the terms' prior sigmas ``s_prior`` (p,)."""
+
+    args: tuple
+    geo: tuple
+    diag: np.ndarray
+    upper: np.ndarray
+    rhs: np.ndarray
+    s_prior: np.ndarray
+
+
+def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
+          n_rows: np.ndarray, problem: _Problem) -> tuple:
+    """The joint solve of track and terms, re-weighted ``IRLS_PASSES`` times from the post-
+    fit residuals (wild points out). Returns the terms' information ``S`` (p, p) and vector
+    ``s`` (p,), the track's sensitivity ``Xc`` (K, 9, p), the increments ``dc`` (p,), their
+    covariance (p, p), each term's reason for not being estimated ("" when it is) and the
+    rows' rates (N, 4).
+
+    Raises:
+        numpy.linalg.LinAlgError: the joint normal matrix is not positive definite.
+    """
+    pr, p = problem, len(terms)
+    groups = [np.flatnonzero(batch.sensor == i) for i in np.unique(batch.sensor)]
+    weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
+    rate = None
+    for it in range(IRLS_PASSES):
+        Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*pr.args, batch.z, weight, *pr.geo, p,
+                                                    residuals=False)
+        S, s, Xc, xb = solve_joint(Nxx + pr.diag, pr.upper, Nxc, Ncc, bx + pr.rhs, bc)
+        dc = np.zeros(p)
+        reason = _select(S, pr.s_prior, terms, batch.sensor_ids, n_rows)
+        act = [k for k in range(p) if reason[k] == ""]
+        cov = np.zeros((p, p))
+        if act:
+            info = S[np.ix_(act, act)] + np.diag(1.0 / pr.s_prior[act] ** 2)
+            cov[np.ix_(act, act)] = np.linalg.inv(info)
+            dc[act] = cov[np.ix_(act, act)] @ s[act]
+        if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals
+            post, rate = postfit(*pr.args, *pr.geo, res, xb - Xc @ dc, dc)
+            weight = _weights(groups, post, batch.sigma, False)
+            del post
+    if rate is None:
+        _, rate = postfit(*pr.args, *pr.geo, res, np.zeros((len(pr.args[2]), N_NODE)),
+                          np.zeros(p))
+    return S, s, Xc, dc, cov, reason, rate
+
+
+def _unsolved(terms: tuple[Term, ...], estimate: np.ndarray, applied: np.ndarray,
+              previous: np.ndarray, why: str, node_t: np.ndarray, n_rows: int
+              ) -> tuple[Calibration, np.ndarray, np.ndarray]:
+    """A registration without a solve (no term, no reference, or a failed solve): every term
+    with the reason ``why``, no covariance; the increments to ``applied`` from the
+    ``previous`` corrections (p,), no rates (n_rows, 4)."""
+    p = len(terms)
+    return (Calibration(terms, estimate, applied, np.zeros((p, p)), (why,) * p, node_t,
+                        np.zeros((len(node_t), N_NODE, N_NODE))),
+            applied - previous, np.zeros((n_rows, 4)))
 
 
 def row_rates(batch: MeasurementBatch, xs: np.ndarray, epoch_t: np.ndarray,
