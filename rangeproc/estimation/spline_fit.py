@@ -240,66 +240,101 @@ def fit_spline(t, model, z, sigma, s, sv, Qr, *, interior_knots, x_init=None, us
     if times.size == 0 or times.max() <= times.min():
         raise ValueError("spline fit: no used measurement rows spanning a time interval")
     knots = _clean_knots(interior_knots, times.min(), times.max())
-    n = 3 * (len(knots) - 4)
-    span, bas = _basis(knots, t, 3)
-    pen1 = _jerk_penalty(knots)
-    pen = sp.csr_array(sp.kron(pen1, sp.eye(3)))          # flat order 3 j + axis
-    pen_band = _band_of(pen, _BW)
+    normal = _Normal(knots, t, (model, z, sigma, s, sv, Qr), prior)
+    c = _initial_coefficients(normal, used, x_init, prior)
+    c, chi2, abT, n_iter, converged = _gauss_newton(normal, c, used, max_iter, tol)
+    zb = _band_inverse(_factor(abT))
+    ks = range(-_BW, _BW + 1)
+    cov = sp.diags([zb[_BW - abs(k), abs(k):] for k in ks], list(ks), format="csr")
+    dof = int(used.sum()) + (6 if prior is not None else 0) - normal.n
+    return SplineFit(knots=knots, coef=c.reshape(-1, 3), cov=sp.csr_array(cov),
+                     chi2=float(chi2), dof=dof, n_iter=n_iter, converged=converged)
 
-    if prior is not None:
-        sp0, b0 = _basis(knots, np.array([float(prior[0])]), 2)
-        pbase = 3 * (sp0[0] - 3)
-        M6 = np.einsum("dq,ae->daqe", b0[0], np.eye(3)).reshape(6, 12)
-        L = np.linalg.cholesky(np.asarray(prior[2], dtype=float)[:6, :6])
-        A_p = solve_triangular(L, M6, lower=True)
-        x0_w = solve_triangular(L, np.asarray(prior[1], dtype=float)[:6], lower=True)
-        AtA = A_p.T @ A_p
 
-    def assemble(c, mask, lam):
-        """Objective, chi2, normal band and gradient at flattened coefficients ``c``."""
-        abT, g = np.zeros((n, _BW + 1)), np.zeros(n)
-        chi2 = _accumulate(c, span, bas, model, z, sigma, s, sv, Qr, mask, abT, g)
+class _Normal:
+    """The penalised least-squares problem of one fit: the rows' B-spline basis, the jerk
+    penalty and the prior's whitened rows; :meth:`assemble` gives the objective and the
+    banded normal equations at a coefficient vector (flat, ``3 j + axis``)."""
+
+    def __init__(self, knots: np.ndarray, t: np.ndarray, rows: tuple, prior) -> None:
+        self.knots, self.t, self.rows, self.prior = knots, t, rows, prior
+        self.n = 3 * (len(knots) - 4)
+        self.span, self.bas = _basis(knots, t, 3)
+        self.pen1 = _jerk_penalty(knots)
+        self.pen = sp.csr_array(sp.kron(self.pen1, sp.eye(3)))      # flat order 3 j + axis
+        self.pen_band = _band_of(self.pen, _BW)
         if prior is not None:
-            r = x0_w - A_p @ c[pbase:pbase + 12]
+            sp0, b0 = _basis(knots, np.array([float(prior[0])]), 2)
+            self.pbase = 3 * (sp0[0] - 3)
+            M6 = np.einsum("dq,ae->daqe", b0[0], np.eye(3)).reshape(6, 12)
+            L = np.linalg.cholesky(np.asarray(prior[2], dtype=float)[:6, :6])
+            self.A_p = solve_triangular(L, M6, lower=True)
+            self.x0_w = solve_triangular(L, np.asarray(prior[1], dtype=float)[:6], lower=True)
+            self.AtA = self.A_p.T @ self.A_p
+
+    def assemble(self, c: np.ndarray, mask: np.ndarray, lam: float | None) -> tuple:
+        """Objective, chi2, normal band and gradient at flattened coefficients ``c``, the
+        rows' components in ``mask`` (N, 6); ``lam``: the penalty's weight (None: chosen
+        here, once per fit, relative to the data's information)."""
+        n = self.n
+        abT, g = np.zeros((n, _BW + 1)), np.zeros(n)
+        chi2 = _accumulate(c, self.span, self.bas, *self.rows, mask, abT, g)
+        if self.prior is not None:
+            pb = self.pbase
+            r = self.x0_w - self.A_p @ c[pb:pb + 12]
             chi2 += r @ r
-            g[pbase:pbase + 12] += A_p.T @ r
+            g[pb:pb + 12] += self.A_p.T @ r
             for k in range(12):                                  # A^T A into the band
-                abT[pbase + k, _BW - k:] += AtA[:k + 1, k]
+                abT[pb + k, _BW - k:] += self.AtA[:k + 1, k]
         if lam is None:                                          # fixed once per fit
             dn = abT[:, _BW]
-            lam = _JERK_EPS * max(dn.mean(), 1e-300) / max(pen_band[:, _BW].mean(), 1e-300)
-        pc = pen @ c
-        return chi2 + lam * (c @ pc), chi2, abT + lam * pen_band, g - lam * pc, lam
+            lam = _JERK_EPS * max(dn.mean(), 1e-300) / max(self.pen_band[:, _BW].mean(),
+                                                           1e-300)
+        pc = self.pen @ c
+        return chi2 + lam * (c @ pc), chi2, abT + lam * self.pen_band, g - lam * pc, lam
 
-    def solve(abT, g):
-        return cho_solve_banded((_factor(abT), False), g)
 
+def _solve(abT: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """The solution of the banded normal equations ``abT`` (upper band form) for ``g``."""
+    return cho_solve_banded((_factor(abT), False), g)
+
+
+def _initial_coefficients(normal: _Normal, used: np.ndarray, x_init, prior) -> np.ndarray:
+    """The Gauss-Newton start (flat coefficients): the linear least-squares spline of
+    ``x_init``'s positions, else the linear fit to the CARTESIAN rows (exact in one step),
+    else the prior's constant-velocity line (see :func:`fit_spline`)."""
+    knots, t = normal.knots, normal.t
+    model = normal.rows[0]
     if x_init is not None:            # linear LS of x_init positions: one step from c = 0
         pos = np.asarray(x_init, dtype=float)[:, :3]
         ok = np.isfinite(pos).all(axis=1) & (t >= knots[0]) & (t <= knots[-1])
         D = sp.csr_array(BSpline.design_matrix(t[ok], knots, 3))
-        Nd, pb = _band_of(D.T @ D, 4), _band_of(pen1, 4)      # per axis, half bandwidth 4
+        Nd, pb = _band_of(D.T @ D, 4), _band_of(normal.pen1, 4)   # per axis, half bw 4
         lam0 = _JERK_EPS * Nd[:, 4].mean() / max(pb[:, 4].mean(), 1e-300)
-        c = solve(Nd + lam0 * pb, D.T @ pos[ok]).ravel()
-    elif (used & (model == CARTESIAN)[:, None]).any():    # CARTESIAN rows: exact in one step
+        return _solve(Nd + lam0 * pb, D.T @ pos[ok]).ravel()
+    if (used & (model == CARTESIAN)[:, None]).any():    # CARTESIAN rows: exact in one step
         mask = used & (model == CARTESIAN)[:, None]
-        _, _, abT, g, _ = assemble(np.zeros(n), mask, None)
-        c = solve(abT, g)
-    elif prior is not None:           # constant-velocity line through the prior (Greville)
+        _, _, abT, g, _ = normal.assemble(np.zeros(normal.n), mask, None)
+        return _solve(abT, g)
+    if prior is not None:           # constant-velocity line through the prior (Greville)
         xi = (knots[1:-3] + knots[2:-2] + knots[3:-1]) / 3.0
         x0 = np.asarray(prior[1], dtype=float)
-        c = (x0[:3] + (xi[:, None] - float(prior[0])) * x0[3:6]).ravel()
-    else:
-        raise ValueError("spline fit: give x_init, CARTESIAN position rows or a prior")
+        return (x0[:3] + (xi[:, None] - float(prior[0])) * x0[3:6]).ravel()
+    raise ValueError("spline fit: give x_init, CARTESIAN position rows or a prior")
 
-    obj, chi2, abT, g, lam = assemble(c, used, None)
+
+def _gauss_newton(normal: _Normal, c: np.ndarray, used: np.ndarray, max_iter: int,
+                  tol: float) -> tuple:
+    """Gauss-Newton with step halving from ``c``; returns the coefficients, chi2, the
+    normal band at them, the iterations and whether it converged (see :func:`fit_spline`)."""
+    obj, chi2, abT, g, lam = normal.assemble(c, used, None)
     converged, n_iter = False, 0
     while n_iter < max_iter and not converged:
-        dc = solve(abT, g)
+        dc = _solve(abT, g)
         small = g @ dc <= tol * max(obj, 1.0)          # GN-predicted decrease negligible
         step, trial = 1.0, None
         while step > 1e-6:                             # step halving (none once converged)
-            trial = assemble(c + step * dc, used, lam)
+            trial = normal.assemble(c + step * dc, used, lam)
             if trial[0] <= obj:
                 break
             step, trial = (0.0 if small else 0.5 * step), None
@@ -310,10 +345,4 @@ def fit_spline(t, model, z, sigma, s, sv, Qr, *, interior_knots, x_init=None, us
         converged = bool(small or obj - trial[0] <= tol * obj)
         c = c + step * dc
         obj, chi2, abT, g, _ = trial
-
-    zb = _band_inverse(_factor(abT))
-    ks = range(-_BW, _BW + 1)
-    cov = sp.diags([zb[_BW - abs(k), abs(k):] for k in ks], list(ks), format="csr")
-    dof = int(used.sum()) + (6 if prior is not None else 0) - n
-    return SplineFit(knots=knots, coef=c.reshape(-1, 3), cov=sp.csr_array(cov),
-                     chi2=float(chi2), dof=dof, n_iter=n_iter, converged=converged)
+    return c, chi2, abT, n_iter, converged
