@@ -304,7 +304,7 @@ _T_SPAN = Doc("the first and last output epoch (s)")
 
 class TargetSummary(TypedDict):
     """``targets.<id>``: one object's span, gaps and estimation figures
-    (``stages.products.target_summary``)."""
+    (``stages.products._target_summary``)."""
 
     t_start: Annotated[float | None, _T_SPAN]
     t_end: Annotated[float | None, _T_SPAN]
