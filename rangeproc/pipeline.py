@@ -32,7 +32,14 @@ from rangeproc.stages.read import read_all
 from rangeproc.stages.report import draw_figures, write_report_page
 from rangeproc.stages.screen import screen
 from rangeproc.stages.write import check_output_dir, make_output_dir, staged_outputs, write_tables
-from rangeproc.timescale import time_scale
+from rangeproc.summary_types import (
+    AssociationSummary,
+    RejectedPoints,
+    RunSummary,
+    SensorSummary,
+    TargetSummary,
+)
+from rangeproc.timescale import TimeScale, time_scale
 from rangeproc.tracking.routing import (
     ASSOCIATED_KINDS,
     association_summary,
@@ -45,13 +52,13 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True, slots=True)
 class RunOutput:
-    """What a run produced: paths written, tracks, residuals, the summary dict and the
-    wall-clock seconds per stage."""
+    """What a run produced: paths written, tracks, residuals, the summary (``summary.json``,
+    ``summary_types.RunSummary``) and the wall-clock seconds per stage."""
 
     out_dir: Path
     tracks: tuple[TrackEstimate, ...]
     residuals: tuple[SensorResiduals, ...]
-    summary: dict
+    summary: RunSummary
     written: tuple[Path, ...]
     timings: dict[str, float]
 
@@ -82,14 +89,14 @@ class RunOutput:
 
 
 
-def without_objects(summary: dict, gone: set[str]) -> dict:
+def without_objects(summary: AssociationSummary, gone: set[str]) -> AssociationSummary:
     """The association summary without the objects left out (``fusion.isolated``)."""
     if gone and summary.get("objects"):
         summary["objects"] = {k: v for k, v in summary["objects"].items() if k not in gone}
     return summary
 
 
-def account(cfg: Config, sensor_summary: dict[str, dict], fates: dict[str, np.ndarray],
+def account(cfg: Config, sensor_summary: dict[str, SensorSummary], fates: dict[str, np.ndarray],
             logs: dict) -> None:
     """Each sensor's ``rows`` in its summary entry, and the lines of the sensors that lose
     rows (``stages.accounting``)."""
@@ -98,6 +105,27 @@ def account(cfg: Config, sensor_summary: dict[str, dict], fates: dict[str, np.nd
             fates[s.id], s.platform is not None, s.kind in ASSOCIATED_KINDS)
     for line in accounting_lines(cfg, fates, logs):
         log.warning("%s", line)
+
+
+def run_summary(cfg: Config, sensors: dict[str, SensorSummary],
+                targets: dict[str, TargetSummary], association: AssociationSummary,
+                rejected: RejectedPoints, warnings: list[str], scale: TimeScale,
+                elapsed_s: float, stage_seconds: dict[str, float]) -> RunSummary:
+    """``summary.json`` (``summary_types.RunSummary``): the versions, the config's and inputs'
+    hashes, and the sections the stages built."""
+    return {
+        "rangeproc_version": rangeproc.__version__,
+        "python": _platform.python_version(), "numpy": np.__version__,
+        "config": {"file": str(cfg.path), "sha256": file_sha256(cfg.path)},
+        "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
+                   for s in cfg.sensors},
+        "sensors": sensors, "targets": targets, "association": association,
+        "rejected_points": rejected,
+        "warnings": warnings,
+        "time_scale": scale.as_dict(),
+        "elapsed_s": elapsed_s,
+        "stage_seconds": stage_seconds,
+    }
 
 
 def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutput:
@@ -173,21 +201,12 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
             figures = draw_figures(stage / "report", tracks, residuals, sensor_summary, sites,
                                    associated, association, edit_rows, scale, first=tables,
                                    progress=lambda name: tick(1, name))
-        summary = {
-            "rangeproc_version": rangeproc.__version__,
-            "python": _platform.python_version(), "numpy": np.__version__,
-            "config": {"file": str(cfg.path), "sha256": file_sha256(cfg.path)},
-            "inputs": {s.id: {"file": str(s.file), "sha256": file_sha256(s.file)}
-                       for s in cfg.sensors},
-            "sensors": sensor_summary, "targets": target_summary,
-            "association": without_objects(association_summary(synthesis, sensor_ids),
-                                           set(estimated) - set(target_summary)),
-            "rejected_points": rejected_examples(edit_rows),
-            "warnings": warnings,
-            "time_scale": scale.as_dict(),
-            "elapsed_s": time.perf_counter() - started,
-            "stage_seconds": dict(clock.seconds),
-        }
+        summary = run_summary(
+            cfg, sensor_summary, target_summary,
+            without_objects(association_summary(synthesis, sensor_ids),
+                            set(estimated) - set(target_summary)),
+            rejected_examples(edit_rows), warnings, scale, time.perf_counter() - started,
+            dict(clock.seconds))
         with clock.stage("write"):
             page = write_report_page(stage / "report", figures, summary,
                                      f"rangeproc: {cfg.path.stem}")

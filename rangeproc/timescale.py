@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from rangeproc.errors import DataError
+from rangeproc.summary_types import RunSummary, TimeScaleRecord
 
 #: The epoch that makes ``time`` Unix seconds (contract section 2's ISO conversion).
 UNIX_EPOCH = "1970-01-01T00:00:00Z"
@@ -103,8 +104,8 @@ class TimeScale:
                else "read as Unix seconds")
         return f"start {self.clock(self.start)} ({raw}, {how})"
 
-    def as_dict(self) -> dict[str, Any]:
-        """The ``summary.json`` entry ``time_scale``."""
+    def as_dict(self) -> TimeScaleRecord:
+        """The ``summary.json`` entry ``time_scale`` (``summary_types.TimeScaleRecord``)."""
         return {"calendar": "utc" if self.known else "unknown", "basis": self.basis,
                 "epoch": None if self.zero is None else
                 np.datetime_as_string(self.zero, unit="ms") + "Z",
@@ -145,7 +146,7 @@ def time_scale(times: Iterable[np.ndarray], epoch: str | None = None) -> TimeSca
     return TimeScale(None, BASIS_UNKNOWN, lo)
 
 
-def from_summary(summary: Mapping[str, Any]) -> TimeScale:
+def from_summary(summary: RunSummary | Mapping[str, Any]) -> TimeScale:
     """The run's time scale from its ``summary.json`` dictionary: its ``time_scale`` entry, or
     (an older summary) the rule applied to the objects' ``t_start`` / ``t_end``."""
     entry = summary.get("time_scale")

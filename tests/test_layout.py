@@ -13,7 +13,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "rangeproc"
 #: its own or a lower layer only (docs/layout.md).
 LAYERS = {
     0: {"__init__", "errors", "keys", "settings", "results", "progress", "parallel",
-        "quantiles", "run_warnings", "timescale", "kernel_cache"},
+        "quantiles", "run_warnings", "timescale", "kernel_cache", "summary_types",
+        "summary_reference"},
     1: {"config_checks", "config", "io", "models", "frames"},
     2: {"config_reference", "editing"},
     3: {"estimation"},

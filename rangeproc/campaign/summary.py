@@ -22,14 +22,15 @@ import numpy as np
 import pandas as pd
 
 from rangeproc.campaign.sortie import Outcome
+from rangeproc.summary_types import RunSummary
 
 #: Combined sigmas beyond which a calibration term counts as moved between two sorties.
 MOVE_SIGMAS = 3.0
 KEYS = ("sortie", "status", "sensor", "kind")
 
 
-def sortie_rows(sortie: str, status: str, summary: dict) -> list[dict]:
-    """The table's rows of one sortie (one per sensor)."""
+def sortie_rows(sortie: str, status: str, summary: RunSummary) -> list[dict]:
+    """The table's rows of one sortie (one per sensor) from its ``summary.json``."""
     rows = []
     for sid, s in summary.get("sensors", {}).items():
         row: dict = {"sortie": sortie, "status": status, "sensor": sid, "kind": s.get("kind"),

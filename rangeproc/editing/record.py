@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rangeproc.summary_types import EditExample
+
 #: Component name used when a whole row is removed (every component at once).
 ALL_COMPONENTS = "*"
 
@@ -67,10 +69,10 @@ class EditRecord:
                 out[e.reason] += int(e.rows.size)
         return dict(sorted(out.items()))
 
-    def examples(self, sensor_id: str, limit: int = 5) -> list[dict[str, object]]:
+    def examples(self, sensor_id: str, limit: int = 5) -> list[EditExample]:
         """The first ``limit`` edits of a sensor, for the summary (row, time, component,
         value, reason)."""
-        out: list[dict[str, object]] = []
+        out: list[EditExample] = []
         for e in self.edits:
             if e.sensor_id != sensor_id:
                 continue

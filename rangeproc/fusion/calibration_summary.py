@@ -19,6 +19,7 @@ import numpy as np
 
 from rangeproc.config import SensorSettings, calibration_terms
 from rangeproc.fusion.registration import UNIT, Calibration, SensorCalibration
+from rangeproc.summary_types import CalibrationTerm, TimeOffsetRecord
 
 GPS_REFERENCE = "GPS is the absolute reference of position and time"
 MISTRAM_REFERENCE = "no GPS on this target: MISTRAM is the time reference"
@@ -42,20 +43,17 @@ def _given(s: SensorSettings, name: str) -> float:
 CLOCK_ALIGNMENT_S = 3600.0
 
 
-def time_offset_summary(s: SensorSettings) -> dict | None:
+def time_offset_summary(s: SensorSettings) -> TimeOffsetRecord | None:
     """``summary.json`` ``sensors.<id>.time_offset``: the configured offset (s) added to the
     sensor's stamps, what it does, and the instant it names when it aligns a clock scale; None
     when no offset is configured."""
     if s.time_offset == 0.0:
         return None
-    out: dict = {"value": s.time_offset, "unit": "s"}
-    if abs(s.time_offset) >= CLOCK_ALIGNMENT_S:
-        out["role"] = "clock scale alignment"
-        out["instant"] = (_dt.datetime.fromtimestamp(s.time_offset, _dt.timezone.utc)
-                          .isoformat().replace("+00:00", "Z"))
-    else:
-        out["role"] = "known latency correction"
-    return out
+    if abs(s.time_offset) < CLOCK_ALIGNMENT_S:
+        return {"value": s.time_offset, "unit": "s", "role": "known latency correction"}
+    return {"value": s.time_offset, "unit": "s", "role": "clock scale alignment",
+            "instant": (_dt.datetime.fromtimestamp(s.time_offset, _dt.timezone.utc)
+                        .isoformat().replace("+00:00", "Z"))}
 
 
 def _estimates(index: int, name: str, cals: Sequence[Calibration]
@@ -76,11 +74,11 @@ def _estimates(index: int, name: str, cals: Sequence[Calibration]
 
 
 def calibration_summary(s: SensorSettings, index: int, spec: SensorCalibration | None,
-                        cals: Sequence[Calibration]) -> dict[str, dict]:
+                        cals: Sequence[Calibration]) -> dict[str, CalibrationTerm]:
     """The ``calibration`` entry of sensor ``s`` (index ``index``) from the registrations
     ``cals`` of every span it took part in; ``spec`` what it was allowed to estimate (None:
     registration off)."""
-    out: dict[str, dict] = {}
+    out: dict[str, CalibrationTerm] = {}
     for name in sensor_terms(s):
         given = _given(s, name)
         extra = {"given": given} if given != 0.0 else {}

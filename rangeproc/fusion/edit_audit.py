@@ -29,20 +29,24 @@ from rangeproc.fusion.edit_table import (
 )
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.models.measurement import N_COMPONENTS
+from rangeproc.summary_types import EditCounts, RejectedPoint, RejectedPoints
 
 #: Most rejected points listed in the summary and on the page (the rest are in edits.parquet).
 REJECTED_SHOWN = 50
 
 
-def edit_counts(table: pd.DataFrame, sensor_id: str) -> dict[str, object]:
-    """One sensor's rejections and down-weightings in ``table``: totals and per reason."""
+def edit_counts(table: pd.DataFrame, sensor_id: str,
+                expected: float = 0.0) -> EditCounts:
+    """One sensor's rejections and down-weightings in ``table``: totals and per reason, and
+    ``expected`` (:func:`down_weight_expected`, rounded to 2 decimals)."""
     mine = table[table["sensor"] == sensor_id]
     rejected = mine[mine["action"] == REJECTED]
     weighted = mine[mine["action"] == DOWN_WEIGHTED]
     return {"n_rejected_points": int(len(rejected)),
             "n_rejected_by_reason": _by_reason(rejected),
             "n_down_weighted": int(len(weighted)),
-            "n_down_weighted_by_reason": _by_reason(weighted)}
+            "n_down_weighted_by_reason": _by_reason(weighted),
+            "n_down_weighted_expected": round(float(expected), 2)}
 
 
 def _by_reason(rows: pd.DataFrame) -> dict[str, int]:
@@ -73,28 +77,28 @@ def down_weight_expected(result: FusionResult, sensor_index: int) -> float:
 
 
 def edit_summary(table: pd.DataFrame, fused: Sequence[tuple[str, FusionResult]],
-                 sensor_ids: Iterable[str]) -> dict[str, dict[str, object]]:
+                 sensor_ids: Iterable[str]) -> dict[str, EditCounts]:
     """Per sensor id: :func:`edit_counts` and ``n_down_weighted_expected`` (summed over the
     objects the sensor's rows went to, 2 decimals)."""
-    out: dict[str, dict[str, object]] = {}
+    out: dict[str, EditCounts] = {}
     for sid in sensor_ids:
         expected = sum(down_weight_expected(res, res.batch.sensor_ids.index(sid))
                        for _, res in fused if sid in res.batch.sensor_ids)
-        out[sid] = {**edit_counts(table, sid),
-                    "n_down_weighted_expected": round(float(expected), 2)}
+        out[sid] = edit_counts(table, sid, expected)
     return out
 
 
-def rejected_examples(table: pd.DataFrame, limit: int = REJECTED_SHOWN) -> dict[str, object]:
+def rejected_examples(table: pd.DataFrame, limit: int = REJECTED_SHOWN) -> RejectedPoints:
     """``{"n": every rejected point, "shown": the first `limit` in time order}``; each shown
     point: sensor, row (1-based in its file), time (s, range time scale), component, value
     and residual in ``unit`` (its file's unit; None where there is none), reason."""
     rejected = table[table["action"] == REJECTED]
     first = rejected.sort_values(["time", "sensor", "row"], kind="stable").head(limit)
-    shown = [{"sensor": str(p.sensor), "row": int(p.row), "time": _finite(p.time),
-              "component": str(p.component), "value": _finite(p.value_file_unit),
-              "residual": _finite(p.residual_file_unit), "unit": str(p.file_unit),
-              "reason": str(p.reason)} for p in first.itertuples(index=False)]
+    shown: list[RejectedPoint] = [
+        {"sensor": str(p.sensor), "row": int(p.row), "time": _finite(p.time),
+         "component": str(p.component), "value": _finite(p.value_file_unit),
+         "residual": _finite(p.residual_file_unit), "unit": str(p.file_unit),
+         "reason": str(p.reason)} for p in first.itertuples(index=False)]
     return {"n": int(len(rejected)), "shown": shown}
 
 

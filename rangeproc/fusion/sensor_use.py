@@ -35,6 +35,7 @@ from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.noise import correlation_discount, lag_correlation
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals
+from rangeproc.summary_types import BiasEntry, NoiseEntry, SensorUse
 
 #: Summary noise key of each measured component (its a-priori sigma's name in the config).
 SIGMA_KEY = {"e": "horizontal", "n": "horizontal", "u": "vertical", "ve": "velocity",
@@ -88,12 +89,12 @@ def _pooled(parts: Sequence[tuple[float | None, np.ndarray]]) -> float | None:
     return float(s[order][np.searchsorted(cum, 0.5 * cum[-1])])
 
 
-def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:
+def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> SensorUse:
     """The summary entries of sensor ``s`` from its uses by the objects (in output order):
     ``n_used``, ``n_rejected`` (rows measured but with no component used), ``n_partly_rejected``
     (rows used with a component rejected), ``n_components_rejected`` (per component), ``noise``,
     ``bias`` (module docstring), ``target`` (the first object), ``targets`` and, with several
-    objects, ``by_object``."""
+    objects, ``by_object`` (``summary_types.SensorUse``)."""
     n_used = n_rejected = n_partly = 0
     comp_rejected: dict[str, int] = {}
     stats = []
@@ -107,8 +108,8 @@ def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:
         for j, name in enumerate(u.residuals.components):
             comp_rejected[name] = comp_rejected.get(name, 0) + int(u.residuals.rejected[:, j].sum())
         stats.append(_component_stats(u))
-    noise: dict[str, dict] = {}
-    bias: dict[str, dict] = {}
+    noise: dict[str, NoiseEntry] = {}
+    bias: dict[str, BiasEntry] = {}
     for name in dict.fromkeys(n for st in stats for n in st):
         parts = [st[name] for st in stats if name in st]
         unit = parts[0][0]
@@ -121,9 +122,10 @@ def sensor_use(s: SensorSettings, uses: Sequence[ObjectUse]) -> dict:
                        "discount": round(correlation_discount(rho), 4)}
         bias[name] = {"unit": unit,
                       "median_residual": float(np.median(pooled)) if pooled.size else None}
-    out = {"n_used": n_used, "n_rejected": n_rejected, "n_partly_rejected": n_partly,
-           "n_components_rejected": comp_rejected, "noise": noise, "bias": bias,
-           "target": uses[0].target_id, "targets": [u.target_id for u in uses]}
+    out: SensorUse = {
+        "n_used": n_used, "n_rejected": n_rejected, "n_partly_rejected": n_partly,
+        "n_components_rejected": comp_rejected, "noise": noise, "bias": bias,
+        "target": uses[0].target_id, "targets": [u.target_id for u in uses]}
     if len(uses) > 1:
         out["by_object"] = {
             u.target_id: {

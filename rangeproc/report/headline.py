@@ -9,13 +9,13 @@ warnings and the report page's path.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from rangeproc.results import TrackEstimate
+from rangeproc.summary_types import RunSummary
 from rangeproc.timescale import TimeScale, from_summary
 
 #: Objects listed one per line; the others are counted.
@@ -40,7 +40,7 @@ def _span(scale: TimeScale, first: float, last: float) -> str:
     return f"{a[:-4]} to {b[11:] if a[:10] == b[:10] else b}"
 
 
-def headline(summary: Mapping[str, Any], tracks: Sequence[TrackEstimate],
+def headline(summary: RunSummary, tracks: Sequence[TrackEstimate],
              page: Path | None) -> list[str]:
     """The headline's lines (no trailing newlines) for a run's ``summary`` and ``tracks``;
     ``page``: the report page (``report/index.html``), None when there is none."""

@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import base64
 import html
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from rangeproc.io.writers import atomic_path
 from rangeproc.report.common import display_unit
+from rangeproc.summary_types import CalibrationTerm, RunSummary, SensorSummary, TimeOffsetRecord
 from rangeproc.timescale import TimeScale, from_summary
 
 #: What each figure shows (by file name; residual figures by prefix).
@@ -94,7 +94,7 @@ def _when(t: float | None, scale: TimeScale) -> str:
     return "–" if t is None else esc(scale.clock(float(t)))
 
 
-def objects_table(summary: Mapping[str, Any]) -> str:
+def objects_table(summary: RunSummary) -> str:
     """The per-object table (``summary["targets"]`` and its association); start and end as
     UTC clock time or seconds from the run's start (``rangeproc.timescale``)."""
     scale = from_summary(summary)
@@ -118,7 +118,7 @@ def objects_table(summary: Mapping[str, Any]) -> str:
                    "divergence resets", "segments"], rows, set(range(1, 11)))
 
 
-def sensors_table(summary: Mapping[str, Any]) -> str:
+def sensors_table(summary: RunSummary) -> str:
     """The per-sensor table: counts, noise and calibration."""
     rows = []
     for sid, s in summary.get("sensors", {}).items():
@@ -142,7 +142,7 @@ def sensors_table(summary: Mapping[str, Any]) -> str:
                       {2, 3, 4, 5, 6})
 
 
-def _rows_lost_cell(s: Mapping[str, Any]) -> str:
+def _rows_lost_cell(s: SensorSummary) -> str:
     """The sensor's rows that no object used, per reason (``summary.json``'s ``rows``,
     ``stages.accounting``): rejected, without platform geometry, not associated, not
     started, nothing measured; "–" when every row was used."""
@@ -160,7 +160,7 @@ def _rows_lost_cell(s: Mapping[str, Any]) -> str:
     return f"{esc(sum(lost.values()))}<br><small>{why}</small>"
 
 
-def _rejected_cell(s: Mapping[str, Any], edited: int) -> str:
+def _rejected_cell(s: SensorSummary, edited: int) -> str:
     """Rejected points (not used at all) with their count per reason; a summary without
     them: the gate's rows plus the edits before estimation."""
     if "n_rejected_points" not in s:
@@ -169,7 +169,7 @@ def _rejected_cell(s: Mapping[str, Any], edited: int) -> str:
     return esc(s["n_rejected_points"]) + (f"<br><small>{why}</small>" if why else "")
 
 
-def _down_weighted_cell(s: Mapping[str, Any]) -> str:
+def _down_weighted_cell(s: SensorSummary) -> str:
     """Components used with a weight below 2/3, and how many Gaussian noise of the estimated
     sigma gives (``fusion.edit_audit``)."""
     if "n_down_weighted" not in s:
@@ -181,7 +181,7 @@ def _down_weighted_cell(s: Mapping[str, Any]) -> str:
                                          else "") + (f"<br><small>{why}</small>" if why else ""))
 
 
-def rejected_table(summary: Mapping[str, Any]) -> str:
+def rejected_table(summary: RunSummary) -> str:
     """The rejected points (``summary["rejected_points"]``, ``fusion.edit_audit``): time, sensor,
     file row, component, value and residual in the file's unit, reason; 'and N more' when
     the summary lists only the first ones."""
@@ -206,7 +206,7 @@ def _value(v: float | None, unit: str, digits: int, sign: str = "") -> str:
     return "–" if v is None or v != v else esc(f"{v:{sign}.{digits}g} {unit}".strip())
 
 
-def _time_offset_cell(offset: Mapping[str, Any] | None) -> list[str]:
+def _time_offset_cell(offset: TimeOffsetRecord | None) -> list[str]:
     """The configured ``time_offset`` as the user gave it: a clock alignment as seconds and
     the instant it names, a known latency correction in ms (none: nothing)."""
     if not offset:
@@ -217,7 +217,7 @@ def _time_offset_cell(offset: Mapping[str, Any] | None) -> list[str]:
     return [f"time_offset (known latency): {esc(_shown(offset['value'], 's'))}"]
 
 
-def _calibration_cell(name: str, c: Mapping[str, Any]) -> str:
+def _calibration_cell(name: str, c: CalibrationTerm) -> str:
     if c.get("estimate") is None:
         return f"{esc(name)}: <i>unobservable</i> ({esc(c.get('unobservable', ''))})"
     applied = "" if c.get("applied", True) else " <small>(not significant, not applied)</small>"
@@ -238,7 +238,7 @@ def figure_block(path: Path, caption: str | None = None) -> str:
             f"<figcaption>{esc(caption)}</figcaption></figure>")
 
 
-def warnings_box(summary: Mapping[str, Any]) -> str:
+def warnings_box(summary: RunSummary) -> str:
     """The run's warnings (``summary["warnings"]``, one line each) in a box for the top of the
     page; 'no warnings' when there are none."""
     lines = [str(w) for w in summary.get("warnings") or []]
@@ -249,7 +249,7 @@ def warnings_box(summary: Mapping[str, Any]) -> str:
             f'{"s" * (len(lines) != 1)}</b><ul>{items}</ul></div>')
 
 
-def _times_line(summary: Mapping[str, Any]) -> str:
+def _times_line(summary: RunSummary) -> str:
     """How the page's times read: the run's start as UTC and raw, or raw with 'from start'."""
     scale = from_summary(summary)
     if scale.start != scale.start:                                  # NaN: no epochs
@@ -257,7 +257,7 @@ def _times_line(summary: Mapping[str, Any]) -> str:
     return f'<p class="meta">Times: {esc(scale.start_text())}</p>'
 
 
-def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -> str:
+def page_html(summary: RunSummary, figures: Sequence[Path], title: str) -> str:
     """The whole page as a string."""
     cfg = summary.get("config", {})
     n_obj, n_sen = len(summary.get("targets", {})), len(summary.get("sensors", {}))
@@ -280,7 +280,7 @@ def page_html(summary: Mapping[str, Any], figures: Sequence[Path], title: str) -
         "</body></html>\n"])
 
 
-def write_page(report_dir: Path, figures: Sequence[Path], summary: Mapping[str, Any],
+def write_page(report_dir: Path, figures: Sequence[Path], summary: RunSummary,
                title: str) -> Path:
     """Write ``report_dir/index.html`` (atomic) from the run's ``summary`` and its figure
     files (embedded in the order given); returns its path."""

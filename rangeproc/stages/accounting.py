@@ -38,6 +38,7 @@ from rangeproc.config import Config, SensorSettings
 from rangeproc.editing.record import ALL_COMPONENTS, EditRecord
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.io.logs import SensorLog
+from rangeproc.summary_types import RowsSummary
 from rangeproc.tracking.synthesis import ANGLE_PLOT, CLUTTER, NO_OBJECT, SHORT
 
 #: A sensor losing more than this fraction of its rows for one reason gets a line.
@@ -127,21 +128,23 @@ def row_fates(s: SensorSettings, n_read: int, read_rows: np.ndarray, log: Sensor
     return fate[1:]
 
 
-def rows_summary(fate: np.ndarray, platform: bool, associated: bool) -> dict:
-    """``summary.json``'s ``rows`` of one sensor from its row fates."""
+def rows_summary(fate: np.ndarray, platform: bool, associated: bool) -> RowsSummary:
+    """``summary.json``'s ``rows`` of one sensor from its row fates
+    (``summary_types.RowsSummary``: ``no_platform_geometry`` for a platform sensor,
+    ``not_associated`` for an ``associated`` kind)."""
     kinds, counts = np.unique(fate.astype(str), return_counts=True)
     n = dict(zip(kinds.tolist(), counts.tolist()))
     assoc = (NO_OBJECT, CLUTTER, ANGLE_PLOT, SHORT)
     special = {USED, NO_MEASUREMENT, NO_PLATFORM, NOT_STARTED, *assoc}
-    out: dict[str, object] = {
+    out: RowsSummary = {
         "read": int(fate.size), "used": int(n.get(USED, 0)),
         "no_measurement": int(n.get(NO_MEASUREMENT, 0)),
-        "rejected": {k: int(v) for k, v in sorted(n.items()) if k not in special}}
+        "rejected": {k: int(v) for k, v in sorted(n.items()) if k not in special},
+        "not_started": int(n.get(NOT_STARTED, 0))}
     if platform:
         out["no_platform_geometry"] = int(n.get(NO_PLATFORM, 0))
     if associated:
         out["not_associated"] = {k: int(n[k]) for k in assoc if n.get(k)}
-    out["not_started"] = int(n.get(NOT_STARTED, 0))
     return out
 
 

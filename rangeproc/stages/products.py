@@ -25,6 +25,7 @@ from rangeproc.fusion.reference_point import reference_variance
 from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
 from rangeproc.results import SensorResiduals, TrackEstimate
+from rangeproc.summary_types import SensorSummary, TargetSummary
 
 
 log = logging.getLogger(__name__)
@@ -106,9 +107,11 @@ def report_disagreement(cfg: Config, far_list: list[FarSensor],
 
 
 def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, SensorLog],
-                     edits: EditRecord) -> dict[str, dict]:
-    """``summary.json``'s ``sensors`` entries as far as reading and screening know them (the
-    counts of used and rejected rows are added by :func:`products`)."""
+                     edits: EditRecord) -> dict[str, SensorSummary]:
+    """``summary.json``'s ``sensors`` entries as far as reading and screening know them
+    (``summary_types.ScreenedSensor``, with ``n_used`` and ``n_rejected`` at screening's: an
+    INS's rows kept, else 0); :func:`products` adds the objects' use of the rows, the write
+    stage the edit counts and ``rows``."""
     return {s.id: {"kind": s.kind, "file": str(s.file), "n_read": logs[s.id].n_read,
                    "n_rows": len(raw[s.id]),
                    "n_used": len(logs[s.id]) if s.kind == "ins" else 0,
@@ -118,11 +121,14 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
 
 
 def _target_summary(track: TrackEstimate, result: FusionResult,
-                    settings: EstimatorSettings) -> dict:
-    """``summary.json``'s entry of one object."""
+                    settings: EstimatorSettings, reference_var: float) -> TargetSummary:
+    """``summary.json``'s entry of one object (``summary_types.TargetSummary``);
+    reference_var: m², the variance of its reference point about the returns
+    (``fusion.reference_point``)."""
     t_used = result.batch.t[result.used.any(axis=1)]
     p = settings.processing
     return {
+        "reference_sigma_m": float(np.sqrt(reference_var)),
         "t_start": float(track.time[0]) if len(track.time) else None,
         "t_end": float(track.time[-1]) if len(track.time) else None,
         "n_epochs": len(track.time),
@@ -142,15 +148,17 @@ def _target_summary(track: TrackEstimate, result: FusionResult,
 
 
 def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
-             settings: EstimatorSettings, sensor_summary: dict[str, dict],
+             settings: EstimatorSettings, sensor_summary: dict[str, SensorSummary],
              n_no_platform: dict[str, int], tick: Callable[..., None] = lambda *a, **k: None
-             ) -> tuple[list[TrackEstimate], list[SensorResiduals], dict[str, dict]]:
+             ) -> tuple[list[TrackEstimate], list[SensorResiduals], dict[str, TargetSummary]]:
     """Each fused object's track on the output grid and each sensor's residuals; fills the
     sensors' summary entries (``sensor_summary``, by id) and returns the objects' entries."""
     sensor_ids = tuple(s.id for s in cfg.sensors)
     stated = stated_position_sigma(cfg.sensors)
     radar = np.array([s.kind == "radar" for s in cfg.sensors])
-    tracks, residuals, target_summary = [], [], {}
+    tracks: list[TrackEstimate] = []
+    residuals: list[SensorResiduals] = []
+    target_summary: dict[str, TargetSummary] = {}
     uses: dict[int, list[ObjectUse]] = {}
     reference = {}
     for tid, result in fused:
@@ -167,8 +175,7 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
             uses.setdefault(i, []).append(ObjectUse(tid, result, i, r))
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
-        target_summary[tid] = _target_summary(track, result, settings)
-        target_summary[tid]["reference_sigma_m"] = float(np.sqrt(reference[tid]))
+        target_summary[tid] = _target_summary(track, result, settings, reference[tid])
         tick(1, tid)
     for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
         sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))
@@ -186,12 +193,12 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
 
 
 def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
-           settings: EstimatorSettings, sensor_summary: dict[str, dict],
+           settings: EstimatorSettings, sensor_summary: dict[str, SensorSummary],
            n_no_platform: dict[str, int], suspicions: dict[str, UnitSuspicion],
            logs: Mapping[str, SensorLog], edits: EditRecord,
            tick: Callable[..., None] = lambda *a, **k: None
            ) -> tuple[list[tuple[str, FusionResult]], list[TrackEstimate],
-                      list[SensorResiduals], dict[str, dict]]:
+                      list[SensorResiduals], dict[str, TargetSummary]]:
     """:func:`products` and the plausibility lines: the sensors far from the others (with an
     angle-unit suspicion: exit 2), whose lone objects are left out (``fusion.isolated``)
     unless ``keep_isolated``, then the stated sigmas far from the noise the data show.
@@ -213,7 +220,7 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
     return fused, tracks, residuals, targets
 
 
-def plausibility(cfg: Config, sensor_summary: dict[str, dict],
+def plausibility(cfg: Config, sensor_summary: Mapping[str, SensorSummary],
                  logs: Mapping[str, SensorLog]) -> None:
     """The lines of stated sigmas far from the noise the data show, of the components each
     sensor's file measures (``logs``, the screened logs by id): judged on the noise of the

@@ -18,6 +18,7 @@ from rangeproc.fusion.assemble import Assembled
 from rangeproc.fusion.batch import SensorRows
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
+from rangeproc.summary_types import AssociatedObject, AssociationSummary
 from rangeproc.tracking.synthesis import Synthesis, synthesise
 
 #: Kinds whose rows are associated (the others name their target).
@@ -137,16 +138,18 @@ def association_table(cfg: Config, syn: Synthesis | None,
     return table.astype({"sensor": str, "target_id": str, "reason": str})
 
 
-def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]) -> dict:
+def association_summary(syn: Synthesis | None, sensor_ids: tuple[str, ...]
+                        ) -> AssociationSummary:
     """The summary's ``association``: objects and their segments, the chosen hypothesis'
     score and the runner-up's (over the searches, summed), whether the search was exact,
     per sensor with angle-only plots the share of them associated by line of sight, per
     plot sensor its stationary returns, the re-association rounds of the plots and their
-    ambiguous stretches (object, runner-up, sensor, t0, t1 s, plots, llr margin)."""
+    ambiguous stretches (object, runner-up, sensor, t0, t1 s, plots, llr margin)
+    (``summary_types.AssociationSummary``)."""
     if syn is None:
         return {"n_segments": 0, "objects": {}, "score": None, "runner_up": None,
                 "exact": True}
-    objects: dict[str, dict] = {}
+    objects: dict[str, AssociatedObject] = {}
     for seg in syn.segments:
         name = syn.segment_object[seg.id]
         if name is None:

@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 
 from rangeproc.evaluate import evaluate_run
+from rangeproc.summary_types import disagreements
 
 CONFIG = "scenario.toml"
 
@@ -151,6 +152,8 @@ def test_mixed_scenario_that_broke_the_smoother_now_runs(tmp_path, cli, explain)
     assert np.isfinite(fused[["e", "n", "u", "sigma_e"]].to_numpy()).all()
     metrics = evaluate_run(tmp_path / "mixed" / "out", tmp_path / "mixed" / "truth.csv")
     assert metrics["targets"]["T1"]["pos_rmse"] < 0.5
+    summary = json.loads((tmp_path / "mixed" / "out" / "summary.json").read_text())
+    assert list(disagreements(summary)) == []          # several objects: as declared
 
 
 def test_track_relay_joins_pieces_of_one_sensor_track_across_a_short_gap() -> None:
