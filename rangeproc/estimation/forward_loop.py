@@ -225,7 +225,8 @@ def _specialise(family: Family) -> Callable:
                         if m > 0:
                             val, ok, _, mask, ll_row = fu.update(
                                 f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate, True,
-                                f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt, f_sdiag)
+                                False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
+                                f_sdiag, ew, Sinv)
                             loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected,
                                                 ll_rows)
                             guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,
