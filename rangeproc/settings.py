@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
+from rangeproc.families import FILTERS
 from rangeproc.keys import derived, key
 
 SENSOR_KINDS = ("radar", "theodolite", "gps", "mistram", "ins")
@@ -32,8 +33,6 @@ STUKF_WEAKENING = 3.0
 #: ``frames.refraction.optical_refractivity``).
 OPTICAL_REFRACTIVITY = 277.9
 REFRACTION_MODELS = ("none", "4/3", "exponential")
-#: The forward filters of ``processing.filter`` (``fusion.centralised.filter_family``).
-FILTERS = ("auto", "ekf", "ukf", "stukf", "sage-husa", "askf", "imm", "spline")
 #: Calibration terms (``summary.json`` ``calibration.<name>``, data contract section 4), SI.
 CALIBRATION_NAMES = ("range", "azimuth", "elevation", "latency", "mount_roll", "mount_pitch",
                      "mount_yaw")

@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "rangeproc"
 #: Layer of each room (top-level module or package of rangeproc): a room may import rooms of
 #: its own or a lower layer only (docs/layout.md).
 LAYERS = {
-    0: {"__init__", "errors", "keys", "settings", "results", "progress", "parallel",
+    0: {"__init__", "errors", "families", "keys", "settings", "results", "progress", "parallel",
         "quantiles", "run_warnings", "timescale", "kernel_cache", "summary_types",
         "summary_reference"},
     1: {"config_checks", "config", "io", "models", "frames"},

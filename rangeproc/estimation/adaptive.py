@@ -24,8 +24,8 @@ a divergence test that falls back: when the filter's divergence guard fires (a s
 noise is adapted by the smoother's local EM statistic (``estimation.tuning``), the offline
 counterpart of Song et al.'s recursive ``Q``.
 
-State layout (arrays allocated by ``forward_kernels.sage_husa_forward``, one row per series
-``g = sensor * 6 + component``):
+State layout (arrays allocated by the shared forward loop, ``estimation.forward_loop``, one
+row per series ``g = sensor * 6 + component``):
 ``buf (G, W, 2)`` ring of (ratio, innovation), ``count (G,)``, ``pos (G,)``, ``acc (G, 2)``
 running sums.
 """

@@ -1,5 +1,5 @@
 """The divergence guard: its per-row bookkeeping, covariance reset and limits (used by the
-forward kernels, ``estimation.forward_kernels``, and ``estimation.imm``).
+shared forward loop, ``estimation.forward_loop``, and ``estimation.imm``).
 
 When one sensor's rows keep failing the gate, the filter re-opens the kinematic covariance so
 the track can re-acquire; these are the reset itself, its ceilings and the rule for partly

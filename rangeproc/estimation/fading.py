@@ -73,7 +73,7 @@ STF_MIN_SIGNAL = 0.1
 #: Upper bound of a fading factor: one epoch may inflate the covariance by at most this.
 MAX_FADING = 1e4
 
-#: Layout of the ``stf`` parameter array of ``forward_kernels.fading_forward``.
+#: Layout of the ``stf`` parameter array of strong tracking's loop (``estimation.forward_loop``).
 STF_RHO, STF_BETA, STF_ALPHA = 0, 1, 2
 #: Length of ``stf``: rho, beta and the prior ratios of position, velocity, acceleration.
 STF_LEN = 5
@@ -81,7 +81,7 @@ STF_LEN = 5
 
 def fading_params(forgetting: float, weakening: float,
                   ratios: tuple[float, float, float]) -> np.ndarray:
-    """The ``stf`` argument of ``fading_forward`` (``FilterSettings.fading``; layout
+    """The ``stf`` argument of strong tracking's loop (``FilterSettings.fading``; layout
     ``STF_*``): forgetting factor rho, weakening factor beta and the prior ratios alpha of
     position, velocity, acceleration."""
     stf = np.empty(STF_LEN)

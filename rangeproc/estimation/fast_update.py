@@ -20,7 +20,9 @@ than nine.
 
 The helpers are inlined into the kernel (``inline="always"``): a call of a separately
 compiled helper with array arguments costs reference counting on every array, more than the
-arithmetic of a small row.
+arithmetic of a small row. The gated update is not a copy: it is ``estimation.update``'s one
+source compiled with this path's sizes (``update.specialise_update``), and the moments'
+``H P`` and ``H P H^T`` are ``moments.cross_moments`` at three columns.
 """
 from __future__ import annotations
 
@@ -29,9 +31,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
-from rangeproc.estimation.moments import LIN_NOISE_SHARE
-from rangeproc.estimation.update import LOG_2PI
+from rangeproc.estimation.moments import LIN_NOISE_SHARE, cross_moments
+from rangeproc.estimation.update import specialise_update
 from rangeproc.models.measurement import AZIMUTH, CARTESIAN, N_COMPONENTS, SPHERICAL, wrap_angle
 from rangeproc.models.motion import N_KINEMATIC
 
@@ -39,10 +40,6 @@ from rangeproc.models.motion import N_KINEMATIC
 #: can be non-zero in (position).
 N = N_KINEMATIC
 NP = 3
-
-
-_cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
-_chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -171,145 +168,11 @@ def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, Qr:
         y[a] = v
         for j in range(NP):
             Hs[a, j] = Hs[c, j]
-    for a in range(m):
-        for j in range(N):                           # C = H P (position columns)
-            acc = 0.0
-            for c in range(NP):
-                acc += Hs[a, c] * P[c, j]
-            C[a, j] = acc
-    for a in range(m):                               # Z = H P H^T
-        for b in range(a + 1):
-            acc = 0.0
-            for c in range(NP):
-                acc += C[a, c] * Hs[b, c]
-            Z[a, b] = acc
-            Z[b, a] = acc
+    cross_moments(Hs, P, m, N, NP, C, Z)             # C = H P, Z = H P H^T
     return m
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _gated(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: np.ndarray,
-           sel: np.ndarray, m: int, x: np.ndarray, P: np.ndarray, gate: np.ndarray,
-           joseph: bool, yw: np.ndarray, HP: np.ndarray, S: np.ndarray, Kt: np.ndarray,
-           AP: np.ndarray, APHt: np.ndarray, sdiag: np.ndarray) -> tuple[float, bool, float]:
-    """``update.gated_update`` at n = 9 with the Jacobian in the position columns (the same
-    operations in the same order; no Sage-Husa statistics)."""
-    for a in range(m):
-        pa = sel[a]
-        inv = 1.0 / sig[a]
-        yw[a] = y[pa] * inv
-        for j in range(N):
-            HP[a, j] = C[pa, j] * inv
-    for a in range(m):
-        for b in range(a + 1):
-            v = Z[sel[a], sel[b]] / (sig[a] * sig[b])
-            S[a, b] = v
-            S[b, a] = v
-        S[a, a] += 1.0
-        sdiag[a] = S[a, a]
-    if not _cholesky(S, m):
-        return math.inf, False, 0.0
-    logdet = 0.0
-    for a in range(m):
-        logdet += 2.0 * math.log(S[a, a])
-    for a in range(m):                                   # nis = yw^T S^-1 yw
-        Kt[a, 0] = yw[a]
-    _chol_solve(S, m, Kt, 1)
-    nis = 0.0
-    for a in range(m):
-        nis += yw[a] * Kt[a, 0]
-    if nis > gate[m]:
-        return nis, False, logdet
-    for a in range(m):                                   # K^T = S^-1 (H P): gain, eq. 8
-        for j in range(N):
-            Kt[a, j] = HP[a, j]
-    _chol_solve(S, m, Kt, N)
-    for j in range(N):                                   # x += K yw, eq. 10
-        acc = 0.0
-        for a in range(m):
-            acc += Kt[a, j] * yw[a]
-        x[j] += acc
-    if joseph:
-        for i in range(N):                               # Joseph form, eq. 9: A P = P - K H P
-            for j in range(N):
-                AP[i, j] = P[i, j]
-            for a in range(m):
-                kai = Kt[a, i]
-                for j in range(N):
-                    AP[i, j] -= kai * HP[a, j]
-        for i in range(N):                               # (A P) H^T, whitened rows of Hs
-            for a in range(m):
-                acc = 0.0
-                inv = 1.0 / sig[a]
-                for c in range(NP):
-                    acc += AP[i, c] * Hs[sel[a], c] * inv
-                APHt[i, a] = acc
-        for i in range(N):                               # A P A^T + K K^T (R = I)
-            for j in range(N):
-                P[i, j] = AP[i, j]
-            for a in range(m):
-                u = Kt[a, i] - APHt[i, a]
-                for j in range(N):
-                    P[i, j] += u * Kt[a, j]
-    else:
-        for i in range(N):                               # P - K S K^T = P - K (H P)
-            for a in range(m):
-                kai = Kt[a, i]
-                for j in range(N):
-                    P[i, j] -= kai * HP[a, j]
-    for i in range(N):
-        for j in range(i):
-            v = 0.5 * (P[i, j] + P[j, i])
-            P[i, j] = v
-            P[j, i] = v
-    return nis, True, logdet
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def update(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
-           Hs: np.ndarray, idx: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
-           gate: np.ndarray, joseph: bool, sel: np.ndarray, sig: np.ndarray, yw: np.ndarray,
-           HP: np.ndarray, S: np.ndarray, Kt: np.ndarray, AP: np.ndarray, APHt: np.ndarray,
-           sdiag: np.ndarray) -> tuple[float, bool, int, int, float]:
-    """``update.update_row`` at n = 9: the whole row gated, else its components that pass
-    their own marginal test gated again; returns ``(nis, accepted, n_accepted, mask,
-    loglik)`` as that does."""
-    for a in range(m):
-        sel[a] = a
-        sig[a] = sig_row[a]
-    val, ok, logdet = math.inf, False, 0.0
-    n_acc = 0
-    mask = 0
-    ll = 0.0
-    mk = m
-    for attempt in range(2):            # one call site: the update is inlined once
-        v, passed, ld = _gated(y, sig, C, Z, Hs, sel, mk, x, P, gate, joseph, yw, HP, S, Kt,
-                               AP, APHt, sdiag)
-        if attempt == 1:                # the components that passed their own test
-            if passed:
-                ok = True
-                n_acc = mk
-                ll = -0.5 * (v + ld + mk * LOG_2PI + (m - mk) * gate[1])
-            break
-        val, ok, logdet = v, passed, ld
-        if ok or m < 2 or not math.isfinite(val):
-            break
-        mk = 0                          # drop components failing their own marginal test
-        for a in range(m):
-            if yw[a] * yw[a] / sdiag[a] <= gate[1]:
-                sel[mk] = a
-                sig[mk] = sig_row[a]
-                mk += 1
-            else:
-                mask |= 1 << idx[a]
-        if not 0 < mk < m:
-            break
-    if not ok:
-        mask = 0
-        for a in range(m):
-            mask |= 1 << idx[a]
-        ll = -0.5 * (min(val, gate[m]) + logdet + m * LOG_2PI)
-    elif mask == 0:
-        n_acc = m
-        ll = -0.5 * (val + logdet + m * LOG_2PI)
-    return val, ok, n_acc, mask, ll
+#: The gated update of a fast-path row: ``update.update_row``'s source compiled at n = 9 with
+#: the Jacobian in the position columns and no Sage-Husa statistics, inlined (the same
+#: operations in the same order); returns ``(nis, accepted, n_accepted, mask, loglik)``.
+_, update = specialise_update(N, NP, "always", False)

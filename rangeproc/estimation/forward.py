@@ -9,9 +9,12 @@ time-ordered batch of rows. The arguments come in three named groups:
   process noise of each step, and optionally the trajectory to linearise at;
 * :class:`FilterSettings`: the family and its parameters, the gate, the divergence guard.
 
-:func:`run_filter` returns a :class:`FilterOutput`. The compiled kernels, one per family, are
-in ``estimation.forward_kernels``; each is compiled (or loaded from the cache) the first time
-its family runs, so a run compiles only what it uses.
+The family is one of the registry's (``rangeproc.families``, keyed by the config's
+``processing.filter`` strings); :func:`run_filter` returns the output type the family
+declares: a :class:`FilterOutput`, or the IMM's ``estimation.imm.IMMOutput``. The compiled
+loop is written once (``estimation.forward_loop``) and specialised per family (the IMM's
+several models have their own loop, ``estimation.imm``); each specialisation is compiled (or
+loaded from the cache) the first time its family runs, so a run compiles only what it uses.
 """
 from __future__ import annotations
 
@@ -19,9 +22,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rangeproc.estimation import forward_kernels as fk
+from rangeproc.estimation.forward_loop import forward_kernel
+from rangeproc.estimation.imm import IMMOutput, imm_forward
 from rangeproc.estimation.moments import EKF, UKF
-from rangeproc.models.measurement import N_COMPONENTS
+from rangeproc.families import REGISTRY
 from rangeproc.models.motion import N_KINEMATIC
 
 __all__ = ["EKF", "UKF", "FilterOutput", "FilterPrior", "FilterRows", "FilterSettings",
@@ -31,8 +35,9 @@ __all__ = ["EKF", "UKF", "FilterOutput", "FilterPrior", "FilterRows", "FilterSet
 #: kappa = 3 - n per Ye and Cui.
 UKF_DEFAULT = (1.0, 2.0, 3.0 - N_KINEMATIC)
 
-#: The filter families (``FilterSettings.family``), each with its own compiled kernel.
-FAMILIES = ("ekf", "ukf", "sage-husa", "strong-tracking", "spline")
+#: The filter families a forward pass runs (``FilterSettings.family``): the registry's, but
+#: "auto", which chooses one of them per object.
+FAMILIES = tuple(name for name, f in REGISTRY.items() if not f.chooses)
 
 
 class FilterRows(NamedTuple):
@@ -90,9 +95,11 @@ class FilterSettings(NamedTuple):
     fading: strong tracking's parameters (``estimation.fading.fading_params``), None = off.
     spline: the spline filter's anomaly quantiles (``estimation.spline_filter
         .spline_params``), None = off.
+    imm: the IMM's ``(codes (r,), generator (r, r) in 1/s)`` (``estimation.imm``; starting
+        from equal model probabilities), None = off.
 
-    At most one of adaptive noise, fading and the spline filter is on; that choice, else the
-    method, is the :attr:`family`.
+    At most one of adaptive noise, fading, the spline filter and the IMM is on; that choice,
+    else the maneuver norm ("askf"), else the method, is the :attr:`family`.
     """
 
     gate: np.ndarray
@@ -105,19 +112,25 @@ class FilterSettings(NamedTuple):
     maneuver_norm: float = 0.0
     fading: np.ndarray | None = None
     spline: np.ndarray | None = None
+    imm: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def family(self) -> str:
-        """The kernel that runs: one of :data:`FAMILIES`."""
+        """The registry's family that runs: one of :data:`FAMILIES`."""
         extras = [name for name, on in (("sage-husa", self.adapt_window > 0),
-                                        ("strong-tracking", self.fading is not None),
-                                        ("spline", self.spline is not None)) if on]
+                                        ("stukf", self.fading is not None),
+                                        ("spline", self.spline is not None),
+                                        ("imm", self.imm is not None)) if on]
         if len(extras) > 1:
             raise ValueError(f"filter settings combine {' and '.join(extras)}; "
                              "at most one of them runs")
-        if extras:
-            return extras[0]
-        return "ukf" if self.method == UKF else "ekf"
+        plain = "ukf" if self.method == UKF else "ekf"
+        if self.maneuver_norm > 0.0:
+            if extras or plain != "ekf":
+                raise ValueError("the maneuver norm needs the plain EKF, not "
+                                 f"{(extras or [plain])[0]}")
+            return "askf"
+        return extras[0] if extras else plain
 
 
 class FilterOutput(NamedTuple):
@@ -167,8 +180,10 @@ def _i64(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
-def run_filter(rows: FilterRows, prior: FilterPrior, settings: FilterSettings) -> FilterOutput:
-    """Run the forward filter of ``settings.family`` over ``rows`` from ``prior``.
+def run_filter(rows: FilterRows, prior: FilterPrior,
+               settings: FilterSettings) -> FilterOutput | IMMOutput:
+    """Run the forward filter of ``settings.family`` over ``rows`` from ``prior``; the
+    result is the output type the family declares (``families.Family.output``).
 
     The motion model is linear (constant acceleration), so the prediction is exact for both
     update methods. Raises FloatingPointError when the state turns non-finite (or a UKF
@@ -189,22 +204,20 @@ def run_filter(rows: FilterRows, prior: FilterPrior, settings: FilterSettings) -
         raise ValueError(f"x_lin has {x_lin.shape[0]} rows for {E} epochs")
     ukf = _f64(settings.ukf, 1)
     method = int(settings.method)
-    if settings.maneuver_norm > 0.0 and family != "ekf":
-        raise ValueError(f"the maneuver norm needs the plain EKF, not {family}")
-    sigma_used, fade = np.zeros((0, N_COMPONENTS)), np.ones((0, N_KINEMATIC))
-    jerk, anomaly, knot = np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0, dtype=np.bool_)
-    if family == "ekf":
-        out = fk.ekf_forward(*common, x_lin, float(settings.maneuver_norm))
-    elif family == "ukf":
-        out = fk.ukf_forward(*common, ukf)
+    if REGISTRY[family].output == "IMMOutput":
+        codes, lam = settings.imm
+        codes = _i64(codes)
+        return IMMOutput._make(imm_forward(*common, x_lin, codes, _f64(lam, 2),
+                                           np.full(len(codes), 1.0 / len(codes))))
+    if family == "askf":
+        par = np.array([float(settings.maneuver_norm)])
     elif family == "sage-husa":
-        out = fk.sage_husa_forward(*common, x_lin, method, ukf, int(settings.adapt_window),
-                                   bool(settings.adapt_mean))
-        sigma_used = out[8]
-    elif family == "strong-tracking":
-        out = fk.fading_forward(*common, x_lin, method, ukf, _f64(settings.fading, 1))
-        fade = out[8]
+        par = np.array([float(settings.adapt_window), float(bool(settings.adapt_mean))])
+    elif family == "stukf":
+        par = _f64(settings.fading, 1)
+    elif family == "spline":
+        par = _f64(settings.spline, 1)
     else:
-        out = fk.spline_forward(*common, x_lin, method, ukf, _f64(settings.spline, 1))
-        fade, jerk, anomaly, knot = out[8:12]
-    return FilterOutput(*out[:8], sigma_used, fade, jerk, anomaly, knot)
+        par = np.empty(0)
+    out = forward_kernel(REGISTRY[family])(*common, x_lin, method, ukf, par)
+    return FilterOutput(*out)

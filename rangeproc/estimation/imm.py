@@ -90,7 +90,7 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 Lam: np.ndarray, mu0: np.ndarray):
     """IMM filter over all epochs (module docstring), EKF updates.
 
-    Arguments as the forward kernels (``forward_kernels.ekf_forward``: rows, prior,
+    Arguments as the shared forward loop (``estimation.forward_loop``: rows, prior,
     ``q_steps``, gate, divergence guard, ``x_lin`` linearisation states or zero rows) plus
     ``codes`` (r,) model codes, ``Lam`` (r, r) switching generator (1/s) and ``mu0`` (r,)
     initial model probabilities.

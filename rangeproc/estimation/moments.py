@@ -26,6 +26,27 @@ EKF = 0
 UKF = 1
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def cross_moments(Hs: np.ndarray, P: np.ndarray, m: int, n: int, n_cols: int, C: np.ndarray,
+                  Z: np.ndarray) -> None:
+    """``C[:m]`` = H P (m, n) and ``Z[:m, :m]`` = H P H^T of the selected Jacobian rows
+    ``Hs[:m]``, zero beyond their first ``n_cols`` columns (the general update's six observed
+    columns; the fast path's three position columns, ``estimation.fast_update``)."""
+    for a in range(m):
+        for j in range(n):
+            acc = 0.0
+            for c in range(n_cols):
+                acc += Hs[a, c] * P[c, j]
+            C[a, j] = acc
+    for a in range(m):
+        for b in range(a + 1):
+            acc = 0.0
+            for c in range(n_cols):
+                acc += C[a, c] * Hs[b, c]
+            Z[a, b] = acc
+            Z[b, a] = acc
+
+
 @njit(cache=True, error_model="numpy")
 def ekf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
                 x: np.ndarray, x_lin: np.ndarray, use_lin: bool, P: np.ndarray,
@@ -54,18 +75,7 @@ def ekf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np
         y[a] = y6[i]
         for c in range(N_OBSERVED):
             Hs[a, c] = H[i, c]
-        for j in range(n):                               # C = H P, H sparse (6 columns)
-            acc = 0.0
-            for c in range(N_OBSERVED):
-                acc += H[i, c] * P[c, j]
-            C[a, j] = acc
-    for a in range(m):                                   # Z = H P H^T
-        for b in range(a + 1):
-            acc = 0.0
-            for c in range(N_OBSERVED):
-                acc += C[a, c] * Hs[b, c]
-            Z[a, b] = acc
-            Z[b, a] = acc
+    cross_moments(Hs, P, m, n, N_OBSERVED, C, Z)     # H sparse (6 columns)
 
 
 #: A row's linearisation variance is worked out only where its cheap upper bound exceeds

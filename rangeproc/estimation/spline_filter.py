@@ -1,5 +1,5 @@
 """Zhou et al.'s self-adaptive spline filter: the pieces that live inside
-``forward_kernels.spline_forward``.
+the shared forward loop's ``anomaly`` and ``jerk-input`` steps (``estimation.forward_loop``).
 
 Zhou et al. 2001 (sec. 1.2) represent the trajectory by a cubic spline: on each knot interval
 ``[T_{i-1}, T_i]`` the third derivative (jerk) ``S_i`` is constant, and the state equation
@@ -44,7 +44,7 @@ the anomaly test fires:
   jerk); each jerk component is held within :data:`SPL_MAX_JERK` (m/s^3), the inflation
   within :data:`SPL_MAX_INFLATION`.
 
-Layout of the ``spl`` parameter array of ``spline_forward`` (``FilterSettings.spline``):
+Layout of the ``spl`` parameter array of the spline filter's loop (``FilterSettings.spline``):
 ``spl[0]`` the standard normal quantile of ``1 - alpha`` (Wilson-Hilferty), ``spl[m]`` for
 ``m = 1 .. SPL_TABLE`` the chi-square quantile with ``m`` degrees of freedom.
 """
@@ -81,7 +81,7 @@ SPL_MAX_JERK = 1e3
 
 
 def spline_params(probability: float) -> np.ndarray:
-    """The ``spl`` array of ``spline_forward`` (``FilterSettings.spline``) for the anomaly
+    """The ``spl`` array of the spline filter's loop (``FilterSettings.spline``) for the anomaly
     test at ``probability`` = ``1 - alpha`` (module docstring)."""
     if not 0.5 <= probability < 1.0:
         raise ValueError(f"anomaly probability must be in [0.5, 1), got {probability}")

@@ -43,7 +43,7 @@ from rangeproc.estimation.constraint import estimate_norm
 from rangeproc.estimation.imm_models import CA, CV, MODEL_NAMES
 from rangeproc.estimation.linalg import unpack
 from rangeproc.fusion.batch import MeasurementBatch, concat_batches
-from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
+from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult, PassFilter
 from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
 from rangeproc.fusion.lead_in import (
@@ -105,7 +105,7 @@ def fuse_target(batch: MeasurementBatch, rate_hz: float,
         NoPositionFix: no span can be started (the first span's reason).
     """
     used, why = choose_filter(settings.processing.filter, batch)
-    chosen = (settings.with_processing(filter="ekf").with_family(spline_fit=True)
+    chosen = (settings.with_processing(filter="ekf").with_filter(PassFilter(spline_fit=True))
               if used == EKF_SPLINE_FIT else settings.with_processing(filter=used))
     result = _fuse_spans(batch, rate_hz, chosen, tick, prior)
     log.info("filter %s: %s", used, why)
@@ -225,15 +225,14 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     q = _first_q(full, work, x0, P0, gate, settings)
     # askf: the first pass is unconstrained (the constraint needs the maneuver's direction,
     # which the data give): the refinement passes impose it, linearised at its smoothed track
-    rho = p.maneuver_norm if family.askf else None
+    rho = p.maneuver_norm if "norm-constraint" in family.family.adds else None
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
     first_pass = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
-                         settings.with_family(imm_models=(), strong_tracking=False),
-                         np.empty((0, x0.shape[0])))
+                         settings.with_filter(family.first()), np.empty((0, x0.shape[0])))
     first = first_pass()
-    if family.askf and rho is None:
+    if "norm-constraint" in family.family.adds and rho is None:
         rho = estimate_norm(first.xs[work.grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
                  else f"{rho:.3g} m/s^2 (estimated)")
@@ -298,7 +297,7 @@ def _result(st: Refinement, full: PassRows, settings: EstimatorSettings, rho: fl
     out, family, p = st.out, settings.family, settings.processing
     epoch_t, meas_epoch, grid = full.epoch_t, full.meas_epoch, full.grid
     xs, Ps, res, hph = out.xs, out.Ps, out.res, out.hph
-    if family.spline or family.spline_fit:   # Zhou et al.'s post-flight batch spline fit
+    if family.fits_spline:                   # Zhou et al.'s post-flight batch spline fit
         from rangeproc.fusion.spline_refine import spline_refine   # scipy.interpolate: 0.1 s
         anomalies = out.knots if out.knots is not None else np.empty(0)
         xs, Ps, res, hph = spline_refine(
@@ -343,10 +342,8 @@ def _fuse_with_lead_in(batch: MeasurementBatch, lead: int, rate_hz: float,
         early = apply_increments(early, cal.terms, cal.applied, np.zeros((lead, 4)))
     lead_grid = grid_t[grid_t < t_fix]
     backwards = fuse_span(time_reversed(early), rate_hz,
-                          replace(settings.with_family(
-                              askf=False, strong_tracking=False, spline=False, sage_husa=False,
-                              imm_models=settings.family.imm_models or LEAD_IN_MODELS),
-                              calibration=()),
+                          replace(settings.with_filter(settings.family.lead_in(LEAD_IN_MODELS)),
+                                  calibration=()),
                           prior=prior, grid_t=np.ascontiguousarray(-lead_grid[::-1]),
                           from_prior=True)
     backwards = forward_in_time(backwards)

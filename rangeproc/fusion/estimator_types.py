@@ -1,15 +1,16 @@
-"""The centralised estimator's types: which forward filter a pass runs (:class:`FilterFamily`,
-:func:`filter_family`), the estimator's settings (:class:`EstimatorSettings`) and its result
-(:class:`FusionResult`), kept below the algorithm (``fusion.centralised``) so that the
-modules that read a result (products, audits, summaries) need not import the algorithm."""
+"""The centralised estimator's types: which forward filter a pass runs (:class:`PassFilter`,
+:func:`pass_filter`: a family of ``rangeproc.families``), the estimator's settings
+(:class:`EstimatorSettings`) and its result (:class:`FusionResult`), kept below the algorithm
+(``fusion.centralised``) so that the modules that read a result (products, audits,
+summaries) need not import the algorithm."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from rangeproc.estimation.forward import EKF, UKF
 from rangeproc.estimation.imm_models import MODEL_NAMES
+from rangeproc.families import REGISTRY, Family, family
 from rangeproc.estimation.tuning import MAX_SEARCH_ROWS
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.refraction_rows import RefractionSettings
@@ -18,56 +19,57 @@ from rangeproc.settings import ProcessingSettings
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
-class FilterFamily:
-    """Which forward filter a pass runs: the estimator's reading of ``processing.filter``
-    (:func:`filter_family`). A pass may switch parts off (the first pass runs neither the IMM
-    nor strong tracking; the lead-in runs the IMM alone).
+class PassFilter:
+    """The forward filter a pass runs: a family of the registry (``rangeproc.families``), the
+    estimator's reading of ``processing.filter`` (:func:`pass_filter`), with what a pass may
+    change (the first pass runs the family's declared ``first_pass``, :meth:`first`; the
+    lead-in runs the IMM, :meth:`lead_in`).
 
-    method: measurement update, ``EKF`` or ``UKF`` (``estimation.forward``).
-    sage_husa: improved Sage-Husa adaptive measurement noise in the filter over windows of
-        ``processing.sage_husa_window`` rows (``estimation.adaptive``), removing the noise
-        mean too with ``processing.sage_husa_mean``.
-    askf: the augmented-state filter of patent CN109581356A with the maneuver-norm constraint
-        on the acceleration block, imposed in the refinement passes (linearised at the
-        previous smoothed track; the first pass is unconstrained, ``noise_passes = 0`` leaves
-        it so): ``processing.maneuver_norm`` (m/s^2) when given, else estimated from the first
-        pass's smoothed accelerations (``estimation.constraint.estimate_norm``); without a
-        usable norm the unconstrained ASKF (the constant-acceleration EKF).
-    strong_tracking: Ye and Cui's strong tracking (``filter = "stukf"``,
-        ``estimation.fading``) with ``processing.stukf_forgetting``, ``stukf_weakening`` and
-        ``stukf_ratios``.
-    imm_models: model codes of the IMM (``estimation.imm``: CV, CA, CT); empty = no IMM. Its
-        first pass is the EKF; the refinement passes run the IMM (EKF updates) from that
-        pass's smoothed first state (``imm_start``) with its process noise (the models carry
-        the dynamics the local EM would otherwise follow); ``noise_passes = 0`` leaves the
-        EKF. ``processing.imm_sojourn``: mean time (s) in a model before a switch.
-    spline: Zhou et al.'s self-adaptive spline filter (``filter = "spline"``,
-        ``estimation.spline_filter``): jerk input per segment, anomaly test (probability
-        ``processing.spline_anomaly_probability``), adapted R and jerk at anomalies, then the
-        batch cubic B-spline fit (``estimation.spline_fit``) on the anomaly knots plus regular
-        knots (``processing.spline_knot_spacing``) replaces the smoothed track
-        (``fusion.spline_refine``).
-    spline_fit: that batch spline fit after the passes of another filter (``filter = "auto"``
-        on range rates alone: the EKF's, ``fusion.filter_choice``).
+    family: the registry's family (its update, parameters, steps and output).
+    imm_models: model codes of the IMM (``estimation.imm_models``: CV, CA, CT) when the family
+        is the IMM; empty otherwise. Its first pass is the EKF; the refinement passes run the
+        IMM from that pass's smoothed first state (``imm_start``) with its process noise;
+        ``noise_passes = 0`` leaves the EKF. ``processing.imm_sojourn``: mean time (s) in a
+        model before a switch.
+    spline_fit: the batch spline fit after the passes although the family declares none
+        (``filter = "auto"`` on range rates alone: the EKF's, ``fusion.filter_choice``).
     """
 
-    method: int = EKF
-    sage_husa: bool = False
-    askf: bool = False
-    strong_tracking: bool = False
+    family: Family = REGISTRY["ekf"]
     imm_models: tuple[int, ...] = ()
-    spline: bool = False
     spline_fit: bool = False
 
+    @property
+    def name(self) -> str:
+        """The family's ``processing.filter`` string."""
+        return self.family.name
 
-def filter_family(p: ProcessingSettings) -> FilterFamily:
-    """The forward filter that ``p.filter`` names (``settings.FILTERS``; "auto" runs the
-    EKF until ``fuse_target`` has chosen, ``fusion.filter_choice``)."""
-    f = p.filter
-    return FilterFamily(method=UKF if f in ("ukf", "stukf") else EKF, sage_husa=f == "sage-husa",
-                        askf=f == "askf", strong_tracking=f == "stukf",
-                        imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
-                        if f == "imm" else (), spline=f == "spline")
+    @property
+    def fits_spline(self) -> bool:
+        """The batch spline fit follows the passes (the family's, or ``spline_fit``)."""
+        return self.family.spline_fit or self.spline_fit
+
+    def first(self) -> PassFilter:
+        """The filter of the first pass: the family's declared ``first_pass``."""
+        first = family(self.family.first)
+        return replace(self, family=first, imm_models=self.imm_models if first.name == "imm"
+                       else ())
+
+    def lead_in(self, default_models: tuple[int, ...]) -> PassFilter:
+        """The IMM of a lead-in before the first fix: the configured IMM's models, else
+        ``default_models``."""
+        return replace(self, family=REGISTRY["imm"],
+                       imm_models=self.imm_models or default_models)
+
+
+def pass_filter(p: ProcessingSettings) -> PassFilter:
+    """The forward filter that ``p.filter`` names ("auto" runs the EKF until ``fuse_target``
+    has chosen, ``fusion.filter_choice``)."""
+    chosen = family(p.filter)
+    if chosen.chooses:
+        chosen = family(chosen.first)
+    return PassFilter(family=chosen, imm_models=tuple(MODEL_NAMES.index(m) for m in p.imm_models)
+                      if chosen.name == "imm" else ())
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
@@ -77,8 +79,9 @@ class EstimatorSettings:
     processing: the config's ``[processing]`` section (``settings.ProcessingSettings``, where
         each key is declared): the estimator reads its fields by name (``gate_probability``,
         ``noise_passes``, ``adapt_noise``, ``process_noise``, ``max_gap``, the filter's own).
-    family_override: the forward filter of the passes when not the one ``processing.filter``
-        names (the first pass, the lead-in); :attr:`family` is the one in force.
+    filter_override: the forward filter of the passes when not the one ``processing.filter``
+        names (the first pass, the lead-in, "auto"'s choice); :attr:`family` is the one in
+        force.
     q_grid: candidate q values for the likelihood search of ``process_noise`` when not given
         (maximum likelihood over ``q_grid`` first, then local EM updates over ``q_window``
         seconds); q_search_rows: at most this many rows (evenly spread) in it, or
@@ -93,7 +96,7 @@ class EstimatorSettings:
     """
 
     processing: ProcessingSettings = ProcessingSettings()
-    family_override: FilterFamily | None = None
+    filter_override: PassFilter | None = None
     q_grid: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2, 5, 8))
     q_window: float = 2.0
     q_search_rows: int = MAX_SEARCH_ROWS
@@ -104,18 +107,18 @@ class EstimatorSettings:
     refraction: RefractionSettings | None = None
 
     @property
-    def family(self) -> FilterFamily:
-        """The forward filter of the passes: ``family_override``, else
+    def family(self) -> PassFilter:
+        """The forward filter of the passes: ``filter_override``, else
         ``processing.filter``'s."""
-        return self.family_override or filter_family(self.processing)
+        return self.filter_override or pass_filter(self.processing)
 
     def with_processing(self, **changes: object) -> EstimatorSettings:
         """These settings with ``[processing]`` values changed (``ProcessingSettings`` fields)."""
         return replace(self, processing=replace(self.processing, **changes))
 
-    def with_family(self, **changes: object) -> EstimatorSettings:
-        """These settings with parts of the forward filter changed (``FilterFamily`` fields)."""
-        return replace(self, family_override=replace(self.family, **changes))
+    def with_filter(self, chosen: PassFilter) -> EstimatorSettings:
+        """These settings with the passes' forward filter ``chosen``."""
+        return replace(self, filter_override=chosen)
 
 
 @dataclass(frozen=True, slots=True)

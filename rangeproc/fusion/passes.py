@@ -17,12 +17,13 @@ import numpy as np
 from rangeproc.errors import NumericalError
 from rangeproc.estimation.fading import fading_params
 from rangeproc.estimation.forward import (
-    FilterOutput,
+    EKF,
+    UKF,
     FilterPrior,
     FilterSettings,
     run_filter,
 )
-from rangeproc.estimation.imm import IMMOutput, imm_forward
+from rangeproc.estimation.imm import IMMOutput
 from rangeproc.estimation.imm_smoother import imm_smooth
 from rangeproc.estimation.linalg import unpack
 from rangeproc.estimation.residuals import smoothed_residuals
@@ -79,38 +80,36 @@ class GateResult(NamedTuple):
     n_resets: int
 
 
-def _gates(fwd: FilterOutput | IMMOutput) -> GateResult:
-    return GateResult(fwd.nis, fwd.dof, fwd.rejected, fwd.n_resets)
-
-
 def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin,
              maneuver_norm: float = 0.0) -> PassResult:
     """One filter + smoother pass with settings ``st`` (``EstimatorSettings``: its forward
     filter ``st.family``, the ``[processing]`` values by name); returns the smoothed track,
-    gate results and residuals."""
-    family = st.family
+    gate results and residuals. The forward filter's output type, as its family declares it
+    (``rangeproc.families``), picks the smoother: Kim's for the IMM's, the RTS otherwise."""
+    settings = filter_settings(st, gate, maneuver_norm)
     model_prob = None
     try:
-        if family.imm_models:
-            gates, xs, Ps, model_prob = _run_imm(batch, epoch_t, meas_epoch, x0, P0, q, gate,
-                                                 st, x_lin)
+        fwd = run_filter(batch.filter_rows(epoch_t, meas_epoch),
+                         FilterPrior(x0, P0, q, x_lin if len(x_lin) == len(epoch_t) else None),
+                         settings)
+        gates = GateResult(fwd.nis, fwd.dof, fwd.rejected, fwd.n_resets)
+        if isinstance(fwd, IMMOutput):
+            codes, lam = settings.imm
+            xs, Ps, model_prob = imm_smooth(epoch_t, fwd.xm, fwd.Pm, fwd.mu, fwd.omega, q,
+                                            codes, lam, IMM_PRUNE)
             em, sigma_used, knot = None, np.zeros((0, 6)), np.zeros(0, dtype=bool)
         else:
-            fwd = run_filter(
-                batch.filter_rows(epoch_t, meas_epoch),
-                FilterPrior(x0, P0, q, x_lin if len(x_lin) == len(epoch_t) else None),
-                filter_settings(st, gate, maneuver_norm))
-            gates, sigma_used, knot, fade = _gates(fwd), fwd.sigma_used, fwd.knot, fwd.fade
-            if knot.shape[0]:
+            sigma_used, knot, fade = fwd.sigma_used, fwd.knot, fwd.fade
+            if "anomaly" in st.family.family.adds:
                 log.info("spline filter: %d anomaly knots", int(knot.sum()))
-            elif fade.shape[0]:
+            elif "fading" in st.family.family.adds:
                 faded = fade.max(axis=1) > 1.0
                 log.info("strong tracking: %d of %d epochs faded (largest factor %.3g)",
                          int(faded.sum()), len(faded), float(fade.max()))
             xs, Ps, em = rts_smooth(epoch_t, fwd.xf, fwd.Pf, q, True, True,  # in place
                                     fade if fade.shape[0] else None,
                                     fwd.jerk if fwd.jerk.shape[0] else None)
-            del fwd                                  # its likelihood rows are not needed
+        del fwd                                  # its likelihood rows are not needed
     except FloatingPointError as exc:
         raise NumericalError(f"estimator failed: {exc}") from exc
     if not np.isfinite(xs).all():
@@ -126,16 +125,23 @@ def run_pass(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, 
 
 def filter_settings(st, gate: np.ndarray, maneuver_norm: float = 0.0) -> FilterSettings:
     """The forward filter's settings of a pass with estimator settings ``st``
-    (``EstimatorSettings``): its family's method and parameters, the gate, the guard."""
-    family, p = st.family, st.processing
+    (``EstimatorSettings``): its family's update and declared parameters (the
+    ``[processing]`` keys ``rangeproc.families`` names), the gate, the guard."""
+    chosen, p = st.family, st.processing
+    adds = chosen.family.adds
+    imm = None
+    if "models" in adds:
+        imm = (np.asarray(chosen.imm_models, dtype=np.int64),
+               imm_generator(len(chosen.imm_models), p.imm_sojourn))
     return FilterSettings(
-        gate, method=family.method, ukf=tuple(st.ukf), reset_after=st.reset_after,
-        reset_inflation=st.reset_inflation,
-        adapt_window=p.sage_husa_window if family.sage_husa else 0,
+        gate, method=UKF if chosen.family.update == "ukf" else EKF, ukf=tuple(st.ukf),
+        reset_after=st.reset_after, reset_inflation=st.reset_inflation,
+        adapt_window=p.sage_husa_window if "adaptive-noise" in adds else 0,
         adapt_mean=p.sage_husa_mean, maneuver_norm=maneuver_norm,
         fading=fading_params(p.stukf_forgetting, p.stukf_weakening, p.stukf_ratios)
-        if family.strong_tracking else None,
-        spline=spline_params(p.spline_anomaly_probability) if family.spline else None)
+        if "fading" in adds else None,
+        spline=spline_params(p.spline_anomaly_probability) if "anomaly" in adds else None,
+        imm=imm)
 
 
 def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,
@@ -184,22 +190,6 @@ def imm_start(first: PassResult, x0: np.ndarray, P0: np.ndarray
     P[:, 6:9] = 0.0
     P[6:9, 6:9] = IMM_START_WIDENING * Ps[6:9, 6:9]
     return x, P
-
-
-def _run_imm(batch: MeasurementBatch, epoch_t, meas_epoch, x0, P0, q, gate, st, x_lin
-             ) -> tuple[GateResult, np.ndarray, np.ndarray, np.ndarray]:
-    """The IMM filter and Kim's smoother (``estimation.imm``): the filter's gate results,
-    the smoothed states, packed covariances and model probabilities."""
-    codes = np.asarray(st.family.imm_models, dtype=np.int64)
-    lam = imm_generator(len(codes), st.processing.imm_sojourn)
-
-    fwd = IMMOutput._make(imm_forward(
-        epoch_t, meas_epoch, batch.model, batch.z, batch.sigma, batch.s, batch.sv, batch.Qr,
-        batch.sensor, x0, P0, q, gate, st.reset_after, st.reset_inflation, x_lin, codes, lam,
-        np.full(len(codes), 1.0 / len(codes))))
-    xs, Ps, mus = imm_smooth(epoch_t, fwd.xm, fwd.Pm, fwd.mu, fwd.omega, q, codes, lam,
-                             IMM_PRUNE)
-    return _gates(fwd), xs, Ps, mus
 
 
 def data_misfit(res: np.ndarray, sigma: np.ndarray, used: np.ndarray) -> float:

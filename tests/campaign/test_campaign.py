@@ -305,8 +305,9 @@ def test_each_worker_gets_its_share_of_the_cores_and_loads_the_kernels_at_start(
     from rangeproc.parallel import CORES_ENV, usable_cores
 
     def loaded() -> int:
-        from rangeproc.estimation import forward_kernels
-        return len(forward_kernels.ekf_forward.signatures)
+        from rangeproc.estimation.forward_loop import forward_kernel
+        from rangeproc.families import family
+        return len(forward_kernel(family("ekf")).signatures)
 
     client, _ = _client(None, 2, 2)
     try:

@@ -1,5 +1,5 @@
-"""``run_filter``: the typed entry picks one compiled kernel per filter family, refuses settings
-that combine families, and a run compiles (or loads) only the kernel it uses."""
+"""``run_filter``: the typed entry runs the shared loop's specialisation of one filter family,
+refuses settings that combine families, and a run compiles (or loads) only the one it uses."""
 from __future__ import annotations
 
 import subprocess
@@ -45,10 +45,10 @@ def _line(n: int = 60, seed: int = 3) -> tuple[FilterRows, FilterPrior, np.ndarr
 
 @pytest.mark.parametrize(("settings", "family"), [
     (FilterSettings(GATE), "ekf"),
-    (FilterSettings(GATE, maneuver_norm=1.0), "ekf"),
+    (FilterSettings(GATE, maneuver_norm=1.0), "askf"),
     (FilterSettings(GATE, method=UKF), "ukf"),
     (FilterSettings(GATE, adapt_window=20), "sage-husa"),
-    (FilterSettings(GATE, method=UKF, fading=STF), "strong-tracking"),
+    (FilterSettings(GATE, method=UKF, fading=STF), "stukf"),
     (FilterSettings(GATE, spline=spline_params(0.999)), "spline"),
 ])
 def test_each_family_runs_its_kernel_and_names_its_outputs(settings: FilterSettings,
@@ -65,7 +65,7 @@ def test_each_family_runs_its_kernel_and_names_its_outputs(settings: FilterSetti
     err = np.linalg.norm(out.xf[20:, :3] - truth[20:], axis=1)
     assert np.sqrt(np.mean(err ** 2)) < 2.0
     assert out.sigma_used.shape == ((n, 6) if family == "sage-husa" else (0, 6))
-    assert out.fade.shape == ((E, 9) if family in ("strong-tracking", "spline") else (0, 9))
+    assert out.fade.shape == ((E, 9) if family in ("stukf", "spline") else (0, 9))
     assert out.jerk.shape == ((E, 3) if family == "spline" else (0, 3))
     assert out.knot.shape == ((E,) if family == "spline" else (0,))
 
@@ -106,19 +106,18 @@ def test_linearising_at_the_truth_changes_nothing_on_linear_rows() -> None:
 
 
 def test_a_run_loads_only_the_kernel_of_its_family() -> None:
-    """In a fresh process, the EKF leaves the other families' kernels uncompiled (unloaded)."""
+    """In a fresh process, the EKF leaves the other families' specialisations of the shared
+    loop unmade and uncompiled (unloaded)."""
     code = (
         f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
         "from test_run_filter import _line, GATE\n"
-        "from rangeproc.estimation import forward_kernels as fk\n"
+        "from rangeproc.estimation import forward_loop\n"
         "from rangeproc.estimation.forward import FilterSettings, run_filter\n"
         "rows, prior, _ = _line()\n"
         "run_filter(rows, prior, FilterSettings(GATE))\n"
-        "for k in ('ekf_forward', 'ukf_forward', 'sage_husa_forward', 'fading_forward',"
-        " 'spline_forward'):\n"
-        "    print(k, len(getattr(fk, k).signatures))\n")
+        "for name, k in forward_loop._KERNELS.items():\n"
+        "    print(name, len(k.signatures))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=300).stdout
     counts = dict(line.split() for line in out.splitlines())
-    assert counts == {"ekf_forward": "1", "ukf_forward": "0", "sage_husa_forward": "0",
-                      "fading_forward": "0", "spline_forward": "0"}
+    assert counts == {"ekf": "1"}
