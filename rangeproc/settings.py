@@ -139,12 +139,20 @@ class InitialState:
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class TargetSettings:
-    """``[[targets]]`` entry: ``id`` and the optional ``initial`` state."""
+    """``[[targets]]`` entry: ``id``, the optional ``initial`` state and the optional
+    ``lever_arm`` of the point to report."""
 
     id: str = key(doc="The target's name (gps and mistram sensors name it in ``target``).")
     initial: InitialState | None = key(
         None, doc="A known state of the target (table below), used where its data cannot "
         "start a track.", parse="initial")
+    lever_arm: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0), doc="For a target measured by plots of radars or lidars alone: the "
+        "point to report (a GNSS antenna) in the object's body frame (forward, right, down) "
+        "from the centre of its returns (the hull's centre), applied with the smoothed "
+        "heading; ignored where the target has gps rows or tracked rows (their point is the "
+        "one they measure).", unit="m", parts=("x", "y", "z"),
+        bounds=(-MAX_LEVER_ARM, MAX_LEVER_ARM), parse="lever_arm")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
