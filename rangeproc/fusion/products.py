@@ -129,14 +129,14 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     if reference.along > 0.0 or reference.across > 0.0:  # where the reference point can be
         P = P.copy()
         P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])
-    if lever_arm is not None:                           # the user's point on the object
-        x = x.copy()
-        x[:, :3] += lever_offset(held_heading(x[:, 3:5]), lever_arm)
     achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
     achievable[~filled] = achievable_sigma(result)
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
     t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
+    if lever_arm is not None:                           # the user's point on the object
+        x = x.copy()
+        x[:, :3] += lever_offset(held_heading(x[:, 3:5]), lever_arm)
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns, names, gap = epoch_bookkeeping(t, rate_hz, result.batch.t[acc],

@@ -5,6 +5,7 @@ leaves the reference point's spread out does not (the negative control)."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ import pytest
 from conftest import describe, invoke
 
 from rangeproc.evaluate.metrics import evaluate_run
-from rangeproc.fusion.extent import Extent, extent_covariance
+from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.simulate import simulate_multi
 
 SEEDS = (1, 2, 3)
@@ -80,3 +81,42 @@ def test_a_sigma_without_the_spread_fails(runs):
     east, north = (np.concatenate(a) for a in zip(*(_inside(o, t, False) for o, t in runs)))
     print(f"without the spread: east {east.mean():.3f}, north {north.mean():.3f}")
     assert min(east.mean(), north.mean()) < 0.9, (east.mean(), north.mean())
+
+
+def test_a_lever_arm_moves_the_reported_point_with_the_heading(runs, tmp_path):
+    # the same scene with its default target T1 declared and given a lever arm: each of T1's
+    # epochs moves by the lever arm turned with its heading, its sigma and velocity do not
+    out, _ = runs[0]
+    scene = tmp_path / "lever"
+    shutil.copytree(out.parent, scene, ignore=shutil.ignore_patterns("out"))
+    config = scene / "scenario.toml"
+    lever = (4.0, -1.5, 0.0)
+    config.write_text(config.read_text() + f"\n[[targets]]\nid = \"T1\"\nlever_arm = "
+                      f"[{lever[0]}, {lever[1]}, {lever[2]}]\n")
+    result = invoke(["run", "--quiet", config])
+    assert result.exit_code == 0, describe(result)
+    assert "lever_arm" not in result.stderr                      # applied: no warning
+    a = pd.read_parquet(out / "fused.parquet")
+    b = pd.read_parquet(scene / "out" / "fused.parquet")
+    a, b = a[a.target_id == "T1"], b[b.target_id == "T1"]
+    assert len(a) == len(b) > 100
+    heading = held_heading(np.c_[a.ve, a.vn])
+    want = lever_offset(heading, lever)
+    moved = np.c_[b.e - a.e.values, b.n - a.n.values, b.u - a.u.values]
+    np.testing.assert_allclose(moved, want, atol=1e-6)
+    np.testing.assert_allclose(b[["sigma_e", "sigma_n", "ve", "vn"]].to_numpy(),
+                               a[["sigma_e", "sigma_n", "ve", "vn"]].to_numpy())
+
+
+def test_a_lever_arm_is_not_applied_where_gps_gives_the_point(sample_copy, tmp_path):
+    scene = tmp_path / "sample"
+    shutil.copytree(sample_copy, scene, ignore=shutil.ignore_patterns("out"))
+    config = scene / "scenario.toml"
+    text = config.read_text()
+    config.write_text(text.replace('[[targets]]\nid = "T1"\n',
+                                   '[[targets]]\nid = "T1"\nlever_arm = [3.0, 0.0, 0.0]\n', 1))
+    result = invoke(["run", "--quiet", config])
+    assert result.exit_code == 0, describe(result)
+    lines = [ln for ln in result.stderr.splitlines() if "lever_arm" in ln]
+    assert len(lines) == 1, result.stderr
+    assert "targets[0].lever_arm of T1 not applied" in lines[0] and "gps" in lines[0]
