@@ -149,9 +149,10 @@ class TargetSettings:
     lever_arm: tuple[float, float, float] = key(
         (0.0, 0.0, 0.0), doc="For a target measured by plots of radars or lidars alone: the "
         "point to report (a GNSS antenna) in the object's body frame (forward, right, down) "
-        "from the centre of its returns (the hull's centre), applied with the smoothed "
-        "heading; ignored where the target has gps rows or tracked rows (their point is the "
-        "one they measure).", unit="m", parts=("x", "y", "z"),
+        "from the centre of its returns, applied with the smoothed heading; not applied, "
+        "with one warning line, where the target has gps or tracked rows (their point is the "
+        "one reported) or never moves faster than 1 m/s (no heading).", unit="m",
+        parts=("x", "y", "z"),
         bounds=(-MAX_LEVER_ARM, MAX_LEVER_ARM), parse="lever_arm")
 
 
