@@ -138,12 +138,21 @@ class InitialState:
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class TargetSettings:
-    """``[[targets]]`` entry: ``id`` and the optional ``initial`` state."""
+    """``[[targets]]`` entry: ``id``, the optional ``initial`` state and the optional
+    ``lever_arm`` of the point to report."""
 
     id: str = key(doc="The target's name (gps and mistram sensors name it in ``target``).")
     initial: InitialState | None = key(
         None, doc="A known state of the target (table below), used where its data cannot "
         "start a track.", parse="initial")
+    lever_arm: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0), doc="For a target measured by plots of radars or lidars alone: the "
+        "point to report (a GNSS antenna) in the object's body frame (forward, right, down) "
+        "from the centre of its returns, applied with the smoothed heading; not applied, "
+        "with one warning line, where the target has gps or tracked rows (their point is the "
+        "one reported) or never moves faster than 1 m/s (no heading).", unit="m",
+        parts=("x", "y", "z"),
+        bounds=(-MAX_LEVER_ARM, MAX_LEVER_ARM), parse="lever_arm")
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)

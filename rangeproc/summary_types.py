@@ -302,6 +302,13 @@ class SensorSummary(ScreenedSensor, SensorUse, EditCounts):
 _T_SPAN = Doc("the first and last output epoch (s)")
 
 
+class ExtentRecord(TypedDict):
+    """``targets.<id>.extent_sigma_m``: a hull's fitted spread (m, 1 sigma)."""
+
+    along: Annotated[float, Doc("along the heading (m)")]
+    across: Annotated[float, Doc("across the heading (m)")]
+
+
 class TargetSummary(TypedDict):
     """``targets.<id>``: one object's span, gaps and estimation figures
     (``stages.products._target_summary``)."""
@@ -329,8 +336,14 @@ class TargetSummary(TypedDict):
         "the largest 1-sigma position uncertainty of any axis (m)")]
     reference_sigma_m: Annotated[float, Doc(
         "for an object measured by plots of radars or lidars alone: the 1-sigma spread (m, per "
-        "horizontal axis) of the reference point about the returns, added to its position sigma "
-        "([Several objects: output](methods/several-objects.md#7-output)); 0 otherwise")]
+        "horizontal axis) of the reference point about the returns that the sensors' stated "
+        "sigmas show ([Several objects: output](methods/several-objects.md#7-output)); 0 "
+        "otherwise")]
+    extent_sigma_m: Annotated[ExtentRecord, Doc(
+        "for the same objects: the hull's 1-sigma spread (m) about the centre of the returns "
+        "fitted from the plots, `along` and `across` the heading (0 and 0 for a point, e.g. an "
+        "aircraft, or where the plots cannot tell hull from noise); the position covariance "
+        "carries the larger of this and `reference_sigma_m` per axis, turned with the heading")]
 
 
 _SCORES = Doc("the chosen association's likelihood score, the best alternative's, whether the "

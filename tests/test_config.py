@@ -165,7 +165,13 @@ ERROR_CASES = [
      "unknown key (expected one of: lat, lon, height)"),
     ("unknown-output", edit(RATE, "rate = 10.0"), "output.rate:", "unknown key"),
     ("unknown-target", '[[targets]]\nid = "T1"\nname = "x"\n\n' + BASE, "targets[0].name:",
-     "unknown key (expected one of: id, initial)"),
+     "unknown key (expected one of: id, initial, lever_arm)"),
+    ("target-lever-arm-length", '[[targets]]\nid = "T1"\nlever_arm = [1.0, 2.0]\n\n' + BASE,
+     "targets[0].lever_arm:", "expected 3 numbers"),
+    ("target-lever-arm-type", '[[targets]]\nid = "T1"\nlever_arm = [1.0, "r", 0.0]\n\n' + BASE,
+     "targets[0].lever_arm[1]:", "expected a number"),
+    ("target-lever-arm-range", '[[targets]]\nid = "T1"\nlever_arm = [0.0, 0.0, 2e4]\n\n' + BASE,
+     "targets[0].lever_arm[2]:", "outside the plausible range"),
     ("unknown-sensor", after(GPS_FILE, 'colour = "red"'), "sensors[3].colour:",
      "unknown key"),
     ("unknown-site", edit("height = 713.0", "height = 713.0, datum = 1"),
@@ -455,6 +461,13 @@ def test_relative_paths_resolve_against_config_folder_not_cwd(
     assert by_id["R1"].file == (cfg_dir / "data" / "R1.csv").resolve()
     assert by_id["G1"].file == (tmp_path / "abs" / "G1.csv").resolve()
     assert all(s.file.is_absolute() for s in cfg.sensors)
+
+
+def test_a_targets_lever_arm_is_read_in_its_body_frame(tmp_path: Path) -> None:
+    cfg = load_config(write(tmp_path, '[[targets]]\nid = "T1"\nlever_arm = [-3, 1.5, 0]\n\n'
+                            + BASE))
+    assert cfg.targets[0].lever_arm == (-3.0, 1.5, 0.0)
+    assert load_config(write(tmp_path, BASE)).targets[0].lever_arm == (0.0, 0.0, 0.0)
 
 
 def test_time_offset_and_lever_arm_values(tmp_path: Path) -> None:

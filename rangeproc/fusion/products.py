@@ -6,6 +6,7 @@ import numpy as np
 from rangeproc.estimation.linalg import unpack_many
 from rangeproc.fusion.achievable import achievable_sigma
 from rangeproc.fusion.bridge import bridge_gaps
+from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.support import supported
@@ -106,14 +107,18 @@ def _nearest_row_gap(grid_t: np.ndarray, t_used: np.ndarray) -> np.ndarray:
 def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
                    rate_hz: float, max_bridge: float = 0.0,
                    stated: np.ndarray | None = None,
-                   reference_var: float = 0.0) -> TrackEstimate:
+                   reference: Extent = Extent(),
+                   lever_arm: tuple[float, float, float] | None = None) -> TrackEstimate:
     """The smoothed state on the output grid, with geodetic position and n_sensors; gaps
     between spans up to ``max_bridge`` s are filled by the least-squares fit of
     ``fusion.bridge``; epochs where the object's own rows reject the trajectory are left out
     (``fusion.support``; ``stated`` (S, 3): each sensor's stated sigmas of its first three
     components, ``fusion.support.position_rows``); with the achievable 1-sigma position of
-    every epoch (``fusion.achievable``); ``reference_var`` (m^2) is added to the horizontal
-    position variance of every epoch (``fusion.reference_point``)."""
+    every epoch (``fusion.achievable``); the spread ``reference`` (m^2 along and across the
+    heading, ``fusion.reference_point.reference_extent``) is added to the horizontal position
+    covariance of every epoch, turned with the smoothed heading (``fusion.extent``); a
+    ``lever_arm`` (forward, right, down; m) moves the reported point by it in the body frame
+    of the smoothed heading (``fusion.extent.held_heading``; the velocity is left as it is)."""
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -121,15 +126,17 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     filled = np.zeros(t.size, dtype=bool)
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
-    if reference_var > 0.0:                             # where the reference point can be
+    if reference.along > 0.0 or reference.across > 0.0:  # where the reference point can be
         P = P.copy()
-        P[:, 0, 0] += reference_var
-        P[:, 1, 1] += reference_var
+        P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])
     achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
     achievable[~filled] = achievable_sigma(result)
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
     t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
+    if lever_arm is not None:                           # the user's point on the object
+        x = x.copy()
+        x[:, :3] += lever_offset(held_heading(x[:, 3:5]), lever_arm)
     lat, lon, h = frame.to_geodetic(x[:, :3])
     acc = result.used.any(axis=1)
     ns, names, gap = epoch_bookkeeping(t, rate_hz, result.batch.t[acc],

@@ -17,17 +17,22 @@ azimuth sigmas ``s_r`` (m), ``s_a`` (rad), estimated noise ``e_r``, ``e_a`` and 
 each axis of an unknown heading gets half of both. The offset is one for every sensor (one
 hull), and each ``v_i`` estimates it; a sensor whose estimated noise exceeds its stated sigma
 (rows of several things, a noise burst) gives 0 and says nothing of it. The largest ``v_i`` is
-taken (a sigma too small is worse than one too large) and added to the horizontal position
-variance of every output epoch. Objects with GPS rows or rows of tracked instruments
-(``track_id``) get nothing: their position is that of the point those sensors measure, and a
-sensor whose stated sigma is its noise (the simulator's, a calibrated tracking radar's)
-gives 0.
+taken (a sigma too small is worse than one too large). It is one of two estimates of the same
+spread: :func:`reference_extent` joins it with the hull's spread fitted from the returns
+themselves (``fusion.extent``), the larger per axis along and across the heading, and that
+is added to the horizontal position covariance of every output epoch (a target's
+``lever_arm`` moves the reported point and leaves the spread: the centre of the returns
+wanders over the hull with the aspect by about as much). Objects with GPS rows or rows of
+tracked instruments (``track_id``) get nothing: their position is that of the point those
+sensors measure, and a sensor whose stated sigma is its noise (the simulator's, a calibrated
+tracking radar's) gives 0.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.fusion.extent import Extent
 from rangeproc.models.measurement import AZIMUTH, CARTESIAN, SPHERICAL
 
 #: The range component of a SPHERICAL row.
@@ -58,3 +63,13 @@ def reference_variance(batch: MeasurementBatch, noise: dict[tuple[int, int], flo
         v = 0.5 * (max(0.0, s_r**2 - e_r**2) + r_med**2 * max(0.0, s_a**2 - e_a**2))
         best = max(best, v)
     return float(best)
+
+
+def reference_extent(variance: float, fitted: Extent) -> Extent:
+    """The spread (m^2, along and across the heading) of the reference point about the
+    returns that the output carries: the larger, per axis, of the stated-sigma estimate
+    ``variance`` (:func:`reference_variance`, one per horizontal axis) and the hull's spread
+    fitted from the returns ``fitted`` (``fusion.extent.object_extent``). Two estimates of one
+    spread, so the larger is taken, not their sum."""
+    return Extent(along=max(variance, fitted.along), across=max(variance, fitted.across))
+

@@ -21,7 +21,8 @@ from rangeproc.fusion.calibration_summary import calibration_summary, time_offse
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
-from rangeproc.fusion.reference_point import reference_variance
+from rangeproc.fusion.extent import HEADING_SPEED, held_heading, object_extent, plots_only
+from rangeproc.fusion.reference_point import reference_extent, reference_variance
 from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
 from rangeproc.results import SensorResiduals, TrackEstimate
@@ -121,14 +122,17 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
 
 
 def _target_summary(track: TrackEstimate, result: FusionResult,
-                    settings: EstimatorSettings, reference_var: float) -> TargetSummary:
+                    settings: EstimatorSettings, reference_var: float,
+                    extent_sigma: tuple[float, float]) -> TargetSummary:
     """``summary.json``'s entry of one object (``summary_types.TargetSummary``);
-    reference_var: m², the variance of its reference point about the returns
-    (``fusion.reference_point``)."""
+    reference_var: m², the variance of its reference point about the returns that the
+    sensors' stated sigmas show (``fusion.reference_point``); extent_sigma: m, the hull's
+    fitted 1-sigma spread along and across the heading (``fusion.extent``)."""
     t_used = result.batch.t[result.used.any(axis=1)]
     p = settings.processing
     return {
         "reference_sigma_m": float(np.sqrt(reference_var)),
+        "extent_sigma_m": {"along": float(extent_sigma[0]), "across": float(extent_sigma[1])},
         "t_start": float(track.time[0]) if len(track.time) else None,
         "t_end": float(track.time[-1]) if len(track.time) else None,
         "n_epochs": len(track.time),
@@ -147,6 +151,27 @@ def _target_summary(track: TrackEstimate, result: FusionResult,
             track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
 
 
+def _lever_arm(tid: str, result: FusionResult, radar: np.ndarray,
+               levers: Mapping[str, tuple[int, tuple[float, float, float]]]
+               ) -> tuple[float, float, float] | None:
+    """The ``lever_arm`` of target ``tid`` (``levers``: target id -> (its index in
+    ``[[targets]]``, its lever arm), the nonzero ones) where it applies: an object measured by
+    plots alone (``fusion.extent.plots_only``) that moves fast enough to have a heading;
+    otherwise one warning line and None."""
+    if tid not in levers:
+        return None
+    i, lever = levers[tid]
+    where = f"targets[{i}].lever_arm of {tid} not applied"
+    if not plots_only(result.batch, radar):
+        log.warning("%s: its position is the point its gps or tracked rows measure", where)
+        return None
+    if np.isnan(held_heading(result.xs[result.grid][:, 3:5])).all():
+        log.warning("%s: it never moves faster than %g m/s, so its heading is unknown", where,
+                    HEADING_SPEED)
+        return None
+    return lever
+
+
 def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
              settings: EstimatorSettings, sensor_summary: dict[str, SensorSummary],
              n_no_platform: dict[str, int], tick: Callable[..., None] = lambda *a, **k: None
@@ -160,12 +185,15 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     residuals: list[SensorResiduals] = []
     target_summary: dict[str, TargetSummary] = {}
     uses: dict[int, list[ObjectUse]] = {}
-    reference = {}
+    levers = {t.id: (i, t.lever_arm) for i, t in enumerate(cfg.targets) if any(t.lever_arm)}
     for tid, result in fused:
-        reference[tid] = reference_variance(result.batch, result.noise, stated, radar)
+        stated_var = reference_variance(result.batch, result.noise, stated, radar)
+        fitted = object_extent(result.batch, result.xs[result.meas_epoch], result.used, radar)
+        lever = _lever_arm(tid, result, radar, levers)
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
-                               stated=stated, reference_var=reference[tid])
+                               stated=stated, lever_arm=lever,
+                               reference=reference_extent(stated_var, fitted))
         tracks.append(track)
         for i in np.unique(result.batch.sensor):
             i = int(i)
@@ -175,7 +203,8 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
             uses.setdefault(i, []).append(ObjectUse(tid, result, i, r))
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
-        target_summary[tid] = _target_summary(track, result, settings, reference[tid])
+        target_summary[tid] = _target_summary(track, result, settings, stated_var,
+                                              fitted.sigma)
         tick(1, tid)
     for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
         sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))
