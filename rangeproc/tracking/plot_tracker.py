@@ -29,7 +29,8 @@ plots, their positions), in the range ENU frame.
     ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
     same cells scan after scan, so tracks there need far stronger evidence than tracks in
     open water or open sky; cells with plots in most scans are reported as stationary
-    returns (:func:`stationary_returns`).
+    returns (:func:`stationary_returns`). A moored boat is such a return while it lies
+    still; when it leaves, its plots move out of its cell and it is tracked from there.
   - *Existence* (the track score, a sequential probability ratio test): each plot a track
     takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
     ``log(1 - PD)`` (``DETECTION_PROBABILITY``); a track is confirmed when its score reaches
@@ -49,6 +50,17 @@ plots, their positions), in the range ENU frame.
     tracks are smoothed afterwards, and the ambiguous cases (objects closer than the plot
     noise) are settled at the segment level, across sensors and gaps, by the track-oriented
     hypothesis search (``tracking.hypotheses``), which sees far more evidence than one scan.
+  - *Extent* (:func:`extent_update`): a ship seen from the side gives plots anywhere along
+    its hull, further off its centre than the sensor's stated noise; each track carries an
+    extent variance, estimated from its own innovations by covariance matching, added to its
+    plots' noise. A point target's stays near 0.
+  - *Several returns in one scan* (:func:`_other_returns`): a lidar gives several returns of
+    one hull per scan; a plot no confirmed track took, within the gate of a plot a confirmed
+    track took in the same scan (the two apart by their noise and twice the track's extent),
+    is a further return of that object and starts no track; only for a sensor measured to
+    give several returns (most of its plots have a neighbour of the same scan within their
+    noise, :func:`neighbour_share`, ``SEVERAL_RETURNS_SHARE``), so that a radar's plots and
+    a formation partner among them keep their own tracks.
   - *Initiation*: an unassigned plot starts a tentative track whose velocity is unknown up to
     ``INITIATION_SPEED`` (3 sigma), so its second plot adds little evidence unless the
     clutter is sparse.
@@ -121,6 +133,19 @@ REVISIT_MAX = MAX_TURN_SECONDS
 REVISIT_AGREEMENT = 0.2
 #: Confirmed tracks with at least this many plots give the revisit estimate.
 REVISIT_MIN_HITS = 5
+#: A track's extent is the mean excess of its innovations over its last this many plots
+#: (:func:`extent_update`).
+EXTENT_MEMORY = 10
+#: A track's extent is used (added to its plot noise) only when its signed mean exceeds this
+#: many standard errors of the mean, the innovations' own scatter (:func:`extent_in_use`):
+#: a point target's scatters about 0 and would otherwise widen its gate to clutter.
+EXTENT_SIGNIFICANCE = 2.0
+#: A sensor gives several returns of one object per scan when at least this share of its
+#: plots have another plot of the same scan within the gate of their two noises
+#: (:func:`neighbour_share`); only then does a further return start no track
+#: (:func:`_other_returns`). A harbour lidar's: 0.92; a radar's among boats and clutter:
+#: 0.28; a surveillance radar's with a formation: 0.03.
+SEVERAL_RETURNS_SHARE = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -254,7 +279,9 @@ class _ImmTrack:
     """A track under way in the plot tracker's IMM: per motion model states xs (M, 6)
     [p, v] ENU, covariances Ps (M, 6, 6), model probabilities mu (M,), all at time t (s);
     the clock (scans or revisits, :class:`PlotTiming`) of its first and last plot; its
-    score (log-likelihood ratio object / clutter) and the best score it reached."""
+    score (log-likelihood ratio object / clutter) and the best score it reached; its extent
+    variance (m^2 per measured axis, :func:`extent_update`, signed) and the mean noise
+    variance of its innovations (m^2 per measured axis, the extent in use left out)."""
 
     xs: np.ndarray
     Ps: np.ndarray
@@ -264,6 +291,8 @@ class _ImmTrack:
     last_scan: float
     score: float = 0.0
     best: float = 0.0
+    extent: float = 0.0
+    noise: float = 0.0
     confirmed: bool = False
     rows: list[int] = field(default_factory=list)
 
@@ -315,13 +344,15 @@ def manoeuvre_psd(v: np.ndarray, Pv: np.ndarray) -> np.ndarray:
 
 def _candidate_pairs(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, t_track: np.ndarray,
                      t: np.ndarray, p: np.ndarray, R: np.ndarray, gate: float,
-                     stamp_sigma: float) -> tuple[np.ndarray, np.ndarray]:
+                     stamp_sigma: float, extent: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """(track index (K,), plot index (K,)) of the pairs that can pass the chi-square
     ``gate`` in some model: a conservative bound from the tracks' model spread and the
     traces of their covariances (a Mahalanobis distance within the gate puts the plot within
     ``sqrt(gate * largest eigenvalue of S)`` of a model's prediction), so that the IMM runs
     only where it can matter. xs (L, M, 6), Ps (L, M, 6, 6), mu (L, M), t_track (L,);
-    t (A,), p (A, 3), R (A, 3, 3)."""
+    t (A,), p (A, 3), R (A, 3, 3); extent (L,) the tracks' extent variances (m^2 per axis,
+    :attr:`_ImmTrack.extent`)."""
     mean = np.einsum("lm,lmd->ld", mu, xs)                          # (L, 6)
     spread_p = np.linalg.norm(xs[..., :3] - mean[:, None, :3], axis=2).max(axis=1)
     spread_v = np.linalg.norm(xs[..., 3:] - mean[:, None, 3:], axis=2).max(axis=1)
@@ -333,6 +364,8 @@ def _candidate_pairs(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, t_track: np
            + max(MODEL_PSD) * dt ** 3 / 3.0
            + np.einsum("aii->a", R)[None, :]
            + (stamp_sigma * speed[:, None]) ** 2)
+    if extent is not None:
+        var = var + 3.0 * extent[:, None]
     centre = mean[:, None, :3] + (t[None, :] - t_track[:, None])[..., None] * mean[:, None, 3:]
     reach = spread_p[:, None] + dt * spread_v[:, None] + np.sqrt(gate * var)
     with np.errstate(invalid="ignore"):
@@ -348,6 +381,131 @@ def _start_imm(p: np.ndarray, R: np.ndarray, t: float, clock: float, row: int) -
     x = np.concatenate([p, np.zeros(3)])
     return _ImmTrack(np.tile(x, (M, 1)), np.tile(P, (M, 1, 1)), np.full(M, 1.0 / M), t,
                      clock, clock, rows=[row])
+
+
+@dataclass(frozen=True, slots=True)
+class _Gains:
+    """The IMM prediction of K (track, plot) pairs and the plot's likelihood under it:
+    predicted model probabilities c (K, M), states xp (K, M, 6), covariances Pp (K, M, 6, 6),
+    innovation covariances S (K, M, 3, 3), innovations d (K, M, 3), Mahalanobis distances m2
+    (K, M) in 3-D, per-model log-likelihoods loglik (K, M) and the mixture's mix (K,) (in
+    east and north only for a planar sensor), and the score gain of taking the plot (K,):
+    ``log(PD p(z) / clutter) - log(1 - PD)``; the tracks' extent variances extent (K,)
+    (m^2 per measured axis, in S)."""
+
+    c: np.ndarray
+    xp: np.ndarray
+    Pp: np.ndarray
+    S: np.ndarray
+    d: np.ndarray
+    m2: np.ndarray
+    loglik: np.ndarray
+    mix: np.ndarray
+    gain: np.ndarray
+    extent: np.ndarray
+
+
+def _pair_gains(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, dt: np.ndarray,
+                p: np.ndarray, R: np.ndarray, clutter: np.ndarray, planar: bool,
+                stamp_sigma: float, extent: np.ndarray) -> _Gains:
+    """:class:`_Gains` of K (track, plot) pairs: the tracks' xs (K, M, 6), Ps (K, M, 6, 6),
+    mu (K, M) carried dt (K,) s to plots p (K, 3) with covariances R (K, 3, 3) and clutter
+    density ``clutter`` (K,) (arguments as :func:`track_plots`); extent (K,) the tracks'
+    extent variances (m^2 per measured axis), added to the plot's noise."""
+    axes = 2 if planar else 3
+    c, xp, Pp = _imm_predict(xs, Ps, mu, dt)
+    S = Pp[..., :3, :3] + R[:, None]                               # (K, M, 3, 3)
+    S[..., np.arange(axes), np.arange(axes)] += extent[:, None, None]
+    if stamp_sigma > 0.0:                            # the time stamp's error, along v
+        v = xp[..., 3:]
+        S = S + stamp_sigma ** 2 * v[..., :, None] * v[..., None, :]
+    d = p[:, None] - xp[..., :3]                                    # (K, M, 3)
+    m2 = np.einsum("kmi,kmi->km", d, np.linalg.solve(S, d[..., None])[..., 0])
+    if planar:                                       # the score in east and north only
+        S2, d2 = S[..., :2, :2], d[..., :2]
+        m2s = np.einsum("kmi,kmi->km", d2, np.linalg.solve(S2, d2[..., None])[..., 0])
+        logdet = np.linalg.slogdet(S2)[1]
+    else:
+        m2s, logdet = m2, np.linalg.slogdet(S)[1]
+    with np.errstate(invalid="ignore", over="ignore"):
+        loglik = -0.5 * (m2s + logdet + axes * np.log(2.0 * np.pi))          # (K, M)
+        mix = np.log(np.maximum((c * np.exp(loglik)).sum(axis=1), 1e-300))
+    gain = (np.log(DETECTION_PROBABILITY) + mix - np.log(clutter)
+            - np.log1p(-DETECTION_PROBABILITY))
+    return _Gains(c, xp, Pp, S, d, m2, loglik, mix, gain, extent)
+
+
+def _take(tr: _ImmTrack, g: _Gains, q: int, t: float, k: float, row: int,
+          clutter: float, axes: int) -> None:
+    """Update track ``tr`` with plot ``row`` (time t s, clock k, clutter density
+    ``clutter``), pair ``q`` of :class:`_Gains` g: the IMM's per-model Kalman updates, model
+    probabilities, the track score (missed revisits since its last plot, then the plot) and
+    its extent's signed mean (:func:`extent_update`, over the ``axes`` measured axes)."""
+    n, used = len(tr.rows), float(g.extent[q])
+    w = 1.0 / min(n + 1, EXTENT_MEMORY)
+    noise = (float(np.einsum("m,mii->", g.c[q], g.S[q, :, :axes, :axes])) / axes - used)
+    tr.noise = (1.0 - w) * tr.noise + w * noise
+    plot_noise = float(np.einsum("m,mii->", g.c[q], g.S[q, :, :axes, :axes]
+                                 - g.Pp[q, :, :axes, :axes])) / axes - used
+    tr.extent = extent_update(tr.extent, n, g.c[q], g.d[q], g.S[q], axes, used, plot_noise)
+    K = np.linalg.solve(g.S[q], g.Pp[q, :, :3, :]).swapaxes(-1, -2)     # (M, 6, 3)
+    tr.xs = g.xp[q] + np.einsum("mij,mj->mi", K, g.d[q])
+    tr.Ps = g.Pp[q] - K @ g.Pp[q, :, :3, :]
+    tr.Ps = 0.5 * (tr.Ps + np.swapaxes(tr.Ps, -1, -2))
+    post = g.c[q] * np.exp(g.loglik[q] - g.loglik[q].max())
+    tr.mu = post / post.sum()
+    missed = max(0.0, k - tr.last_scan - 1.0)
+    tr.score += (missed * np.log1p(-DETECTION_PROBABILITY) + np.log(DETECTION_PROBABILITY)
+                 + g.mix[q] - np.log(clutter))
+    tr.best = max(tr.best, tr.score)
+    tr.t, tr.last_scan = t, k
+    tr.rows.append(row)
+    tr.confirmed |= tr.score >= CONFIRM_SCORE
+
+
+def extent_update(extent: float, n: int, c: np.ndarray, d: np.ndarray, S: np.ndarray,
+                  axes: int, used: float | None = None,
+                  plot_noise: float | None = None) -> float:
+    """A track's extent variance (m^2 per measured axis) after a plot, by covariance matching
+    (Mehra 1972; the extent of Koch 2008's random-matrix model, isotropic): the plot's
+    innovation beyond what its noise and the track's uncertainty explain,
+    ``(|d|^2 - tr(S - extent I)) / axes`` over the ``axes`` measured axes, averaged over the
+    track's plots, the last ``EXTENT_MEMORY`` weighing most. The mean is kept signed (a point
+    target's excess scatters about 0: clipping each sample would bias it up, and a track
+    grown wide takes clutter), and the track's extent is its positive part.
+
+    extent: the signed mean before the plot; n: the track's plots before this one; c (M,) the
+    predicted model probabilities; d (M, 3) m the innovations; S (M, 3, 3) m^2 their
+    covariances, with ``used`` m^2 per axis of extent in them (default: the extent's positive
+    part; :func:`extent_in_use`); plot_noise: the plot's own noise variance (m^2 per axis,
+    the track's uncertainty left out): a plot counts by ``(plot_noise / s)^2`` of a settled
+    track's, s its innovation variance per axis, the share of its information on the extent
+    (a young track's innovations, its velocity unknown, tell next to nothing of it and would
+    pull the mean far below 0 for many plots). Default: every plot counts fully. A ship 30 m
+    long seen from the side gives plots anywhere along its hull, 10 m and more off its
+    centre, where the radar's stated noise is 3 m; a point target's extent stays near 0."""
+    dm = np.einsum("m,mi->i", c, d)[:axes]
+    used = max(extent, 0.0) if used is None else used
+    noise = float(np.einsum("m,mii->", c, S[:, :axes, :axes])) - axes * used
+    excess = (float(dm @ dm) - noise) / axes
+    w = 1.0 / min(n + 1, EXTENT_MEMORY)
+    if plot_noise is not None:
+        w *= min(1.0, plot_noise * axes / max(noise, 1e-12)) ** 2
+    return (1.0 - w) * extent + w * excess
+
+
+def extent_in_use(tr: _ImmTrack, axes: int) -> float:
+    """The extent variance (m^2 per measured axis) added to track ``tr``'s plot noise: its
+    signed mean (:func:`extent_update`) where it exceeds ``EXTENT_SIGNIFICANCE`` standard
+    errors of that mean, else 0. An innovation of variance s per axis (noise and extent) over
+    ``axes`` axes gives an excess of variance ``2 s^2 / axes``; the mean is over
+    ``min(n, EXTENT_MEMORY)`` plots. A point target's mean scatters about 0 by that error and
+    would, used whenever positive, widen its gate to clutter; a hull's stands well above it."""
+    n = min(len(tr.rows), EXTENT_MEMORY)
+    if tr.extent <= 0.0 or n < 2:
+        return 0.0
+    se = (tr.noise + tr.extent) * np.sqrt(2.0 / (axes * n))
+    return tr.extent if tr.extent > EXTENT_SIGNIFICANCE * se else 0.0
 
 
 def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
@@ -376,9 +534,22 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     if t.size == 0:
         return label
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
+    several = neighbour_share(p, R, scan, gate, planar) >= SEVERAL_RETURNS_SHARE
+    return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
+
+
+def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                 clock: np.ndarray, planar: bool, stamp_sigma: float,
+                 further_returns: bool) -> np.ndarray:
+    """The tracker of :func:`track_plots` (same arguments, every plot usable, at least one):
+    the label per plot (N,). With ``further_returns`` (a sensor that gives several returns
+    per object a scan), a plot no confirmed track took within the pair gate of a plot one
+    took in the same scan is that object's further return and starts no track
+    (:func:`_other_returns`)."""
+    label = np.full(t.size, -1, dtype=np.int64)
     axes = 2 if planar else 3
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar)
-    log_pd, log_miss = np.log(DETECTION_PROBABILITY), np.log1p(-DETECTION_PROBABILITY)
     live: list[_ImmTrack] = []
     done: list[_ImmTrack] = []
     order = np.argsort(scan, kind="stable")
@@ -387,73 +558,112 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
         k = float(clock[rows[0]])
         cost = np.full((rows.size, len(live)), np.inf)
         pair = np.full((len(live), rows.size), -1, dtype=np.int64)
+        g = None
         if live:                                     # the live tracks against the plots
             xs_l = np.stack([tr.xs for tr in live])
             Ps_l = np.stack([tr.Ps for tr in live])
             mu_l = np.stack([tr.mu for tr in live])
             t_l = np.array([tr.t for tr in live])
+            e_l = np.array([extent_in_use(tr, axes) for tr in live])
             pl, pa = _candidate_pairs(xs_l, Ps_l, mu_l, t_l, t[rows], p[rows], R[rows],
-                                      gate, stamp_sigma)
+                                      gate, stamp_sigma, e_l)
             pair[pl, pa] = np.arange(pl.size)
         if live and pl.size:
-            c, xp, Pp = _imm_predict(xs_l[pl], Ps_l[pl], mu_l[pl], t[rows][pa] - t_l[pl])
-            S = Pp[..., :3, :3] + R[rows][pa][:, None]                # (K, M, 3, 3)
-            if stamp_sigma > 0.0:                    # the time stamp's error, along v
-                v = xp[..., 3:]
-                S = S + stamp_sigma ** 2 * v[..., :, None] * v[..., None, :]
-            d = p[rows][pa][:, None] - xp[..., :3]                  # (K, M, 3)
-            m2 = np.einsum("kmi,kmi->km", d, np.linalg.solve(S, d[..., None])[..., 0])
-            if planar:                               # the score in east and north only
-                S2, d2 = S[..., :2, :2], d[..., :2]
-                m2s = np.einsum("kmi,kmi->km", d2,
-                                np.linalg.solve(S2, d2[..., None])[..., 0])
-                logdet = np.linalg.slogdet(S2)[1]
-            else:
-                m2s, logdet = m2, np.linalg.slogdet(S)[1]
-            with np.errstate(invalid="ignore", over="ignore"):
-                loglik = -0.5 * (m2s + logdet + axes * np.log(2.0 * np.pi))  # (K, M)
-                mix = np.log(np.maximum((c * np.exp(loglik)).sum(axis=1), 1e-300))
-            # the gain of taking plot a into track l rather than leaving the track missed
-            # and the plot to clutter or a new track: log(PD p(z) / clutter) - log(1 - PD);
+            g = _pair_gains(xs_l[pl], Ps_l[pl], mu_l[pl], t[rows][pa] - t_l[pl],
+                            p[rows][pa], R[rows][pa], clutter[rows][pa], planar,
+                            stamp_sigma, e_l[pl])
             # a confirmed track takes no plot likelier clutter than its own (a tentative
             # one takes what its gate holds, and its score judges it)
-            gain = log_pd + mix - np.log(clutter[rows][pa]) - log_miss          # (K,)
             confirmed = np.array([tr.confirmed for tr in live])[pl]
-            ok = (m2 <= gate).any(axis=1) & ((gain > 0.0) | ~confirmed)
-            cost[pa[ok], pl[ok]] = -gain[ok]
+            ok = (g.m2 <= gate).any(axis=1) & ((g.gain > 0.0) | ~confirmed)
+            cost[pa[ok], pl[ok]] = -g.gain[ok]
         taken = np.zeros(rows.size, dtype=bool)
-        if live and rows.size and np.isfinite(cost).any():
+        owner = np.full(rows.size, -1, dtype=np.int64)
+        if g is not None and rows.size and np.isfinite(cost).any():
             a_idx, j_idx = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e12))
             for a, j in zip(a_idx, j_idx):
                 if not np.isfinite(cost[a, j]):
                     continue
-                tr, i, q = live[j], int(rows[a]), int(pair[j, a])
-                K = np.linalg.solve(S[q], Pp[q, :, :3, :]).swapaxes(-1, -2)  # (M, 6, 3)
-                tr.xs = xp[q] + np.einsum("mij,mj->mi", K, d[q])
-                tr.Ps = Pp[q] - K @ Pp[q, :, :3, :]
-                tr.Ps = 0.5 * (tr.Ps + np.swapaxes(tr.Ps, -1, -2))
-                post = c[q] * np.exp(loglik[q] - loglik[q].max())
-                tr.mu = post / post.sum()
-                missed = max(0.0, k - tr.last_scan - 1.0)
-                tr.score += missed * log_miss + log_pd + mix[q] - np.log(clutter[i])
-                tr.best = max(tr.best, tr.score)
-                tr.t, tr.last_scan = float(t[i]), k
-                tr.rows.append(i)
-                tr.confirmed |= tr.score >= CONFIRM_SCORE
+                i = int(rows[a])
+                _take(live[j], g, int(pair[j, a]), float(t[i]), k, i, float(clutter[i]),
+                      axes)
                 taken[a] = True
+                owner[a] = j
+        if further_returns:
+            live, taken = _other_returns(live, owner, taken, rows, p, R, gate, planar)
         keep = []
         for tr in live:
-            now = tr.score + max(0.0, k - tr.last_scan - 1.0) * log_miss
+            now = tr.score + max(0.0, k - tr.last_scan - 1.0) * np.log1p(-DETECTION_PROBABILITY)
             expired = (now < tr.best - DELETE_DROP
                        or (not tr.confirmed and k - tr.first_scan >= CONFIRM_SCANS
                            and now <= CLUTTER_SCORE))
             (done if expired else keep).append(tr)
         live = keep
-        for a in np.flatnonzero(~taken):
-            i = int(rows[a])
-            live.append(_start_imm(p[i], R[i], float(t[i]), k, i))
+        for i in rows[~taken]:
+            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i)))
     done.extend(live)
     confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])
     for n, tr in enumerate(confirmed):
         label[np.asarray(tr.rows)] = n
     return label
+
+
+def neighbour_share(p: np.ndarray, R: np.ndarray, scan: np.ndarray, gate: float,
+                    planar: bool) -> float:
+    """The share of plots with another plot of the same scan within the chi-square ``gate``
+    of their two noises (p (N, 3) m, R (N, 3, 3) m^2, scan (N,); east and north only when
+    ``planar``): near 1 for a sensor that gives several returns per object a scan (a lidar
+    whose stated noise, its residuals' spread against GNSS, spans the hull), small for one
+    plot per object a scan, where only objects closer than their noise and clutter give
+    pairs."""
+    axes = 2 if planar else 3
+    order = np.argsort(scan, kind="stable")
+    bounds = np.flatnonzero(np.diff(scan[order])) + 1
+    near = 0
+    for rows in np.split(order, bounds):
+        for lo in range(0, rows.size if rows.size > 1 else 0, 64):  # blocks of 64 plots
+            a = rows[lo:lo + 64]
+            dp = p[a][:, None, :axes] - p[rows][None, :, :axes]           # (b, m, axes)
+            C = R[a][:, None, :axes, :axes] + R[rows][None, :, :axes, :axes]
+            m2 = np.einsum("abi,abi->ab", dp, np.linalg.solve(C, dp[..., None])[..., 0])
+            m2[np.arange(a.size), lo + np.arange(a.size)] = np.inf       # not itself
+            near += int((m2 <= gate).any(axis=1).sum())
+    return near / max(p.shape[0], 1)
+
+
+def _pair_close(tr: _ImmTrack, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,
+                Rb: np.ndarray, gate: float, axes: int) -> bool:
+    """Whether plots pa and pb (3,) m, covariances Ra, Rb (3, 3) m^2, can be two returns of
+    track ``tr``'s hull: apart by at most their noise and twice its extent in use, within the
+    chi-square ``gate``."""
+    C = Ra + Rb
+    C[np.arange(axes), np.arange(axes)] += 2.0 * extent_in_use(tr, axes)
+    dp = pa - pb
+    return bool(dp @ np.linalg.solve(C, dp) <= gate)
+
+
+def _other_returns(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
+                   rows: np.ndarray, p: np.ndarray, R: np.ndarray, gate: float,
+                   planar: bool) -> tuple[list[_ImmTrack], np.ndarray]:
+    """An extended object's further returns in one scan (a lidar gives several per hull):
+    a plot of the scan ``rows`` that no confirmed track took, within ``gate`` of a plot a
+    confirmed track took in it, the two apart by at most their noise and twice the track's
+    extent (two returns of one hull, each off its centre by the extent), is that object's
+    and starts no track; a tentative track that took it is dropped (a copy of the object
+    begun on another return). owner (A,) the live track that took each plot of the scan
+    (-1 none), taken (A,) whether one did. Returns the live tracks and the plots claimed."""
+    axes = 2 if planar else 3
+    confirmed = [a for a in np.flatnonzero(owner >= 0) if live[owner[a]].confirmed]
+    if not confirmed:
+        return live, taken
+    claimed = taken.copy()
+    dropped: set[int] = set()
+    for a in np.flatnonzero(~np.isin(np.arange(rows.size), confirmed)):
+        for b in confirmed:
+            if _pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
+                           gate, axes):
+                claimed[a] = True
+                if owner[a] >= 0:
+                    dropped.add(int(owner[a]))
+                break
+    return [tr for j, tr in enumerate(live) if j not in dropped], claimed

@@ -1,0 +1,114 @@
+"""The plot tracker's extended objects: a track's extent (covariance matching) stays near 0 for a
+point target and finds a hull's spread; a hull's further returns in one scan start no track."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rangeproc.tracking.plot_tracker as pt
+
+def _mean_extent(update, spread: float, seed: int = 3) -> float:
+    """Mean extent (m^2) a track reaches over 900 plots whose innovations scatter ``spread``
+    m per axis about a prediction of covariance 4 m^2 per axis (planar)."""
+    rng = np.random.default_rng(seed)
+    c, S = np.array([1.0]), np.eye(3)[None] * 4.0
+    e, seen = 0.0, []
+    for n in range(1000):
+        S_n = S + np.diag([max(e, 0.0)] * 2 + [0.0])[None]
+        d = rng.normal(0.0, spread, (1, 3)) * [1, 1, 0]
+        e = update(e, n, c, d, S_n, 2)
+        seen.append(max(e, 0.0))
+    return float(np.mean(seen[100:]))
+
+
+def test_extent_update_stays_near_zero_for_a_point_target():
+    """The extent's covariance matching: innovations of the stated noise give an extent near
+    0 (the mean kept signed), wider ones their excess (25 - 4 = 21 m^2 per axis)."""
+    assert _mean_extent(pt.extent_update, 2.0) < 0.8
+    assert _mean_extent(pt.extent_update, 5.0) == pytest.approx(21.0, abs=2.5)
+
+    # the negative control: each sample's excess clipped at 0 biases a point target's extent
+    # up (it then takes the clutter a miss leaves in its wider gate)
+    def clipped(extent, n, c, d, S, axes):
+        dm = np.einsum("m,mi->i", c, d)[:axes]
+        noise = float(np.einsum("m,mii->", c, S[:, :axes, :axes])) - axes * extent
+        w = 1.0 / min(n + 1, pt.EXTENT_MEMORY)
+        return (1.0 - w) * extent + w * max(0.0, (float(dm @ dm) - noise) / axes)
+    assert _mean_extent(clipped, 2.0) > 1.1
+
+
+def _scan_of_returns(extent: float):
+    """One lidar scan: a confirmed track of ``extent`` (m^2) took plot 0, a tentative track
+    took plot 1 (4 m along the hull), plot 2 (7 m off) no track took, plot 3 lies 60 m off.
+    Returns what :func:`_other_returns` makes of it: (live tracks left, plots claimed)."""
+    M = len(pt.MODEL_PSD)
+    p = np.array([[0.0, 80.0, 0.0], [4.0, 80.0, 0.0], [-7.0, 80.0, 0.0], [60.0, 80.0, 0.0]])
+    R = np.tile(np.diag([0.1**2, 0.1**2, 1.0]), (4, 1, 1))
+    tracks = [pt._start_imm(p[i], R[i], 0.0, 0.0, i) for i in (0, 1)]
+    tracks[0].confirmed, tracks[0].extent = True, extent
+    tracks[0].rows, tracks[0].noise = list(range(pt.EXTENT_MEMORY)), 0.01  # a settled hull
+    owner = np.array([0, 1, -1, -1])
+    assert tracks[0].xs.shape == (M, 6)
+    live, claimed = pt._other_returns(tracks, owner, owner >= 0, np.arange(4), p, R,
+                                      float(pt.chi2_ppf(pt.GATE_PROBABILITY, 3)), True)
+    return live, claimed
+
+
+def test_further_returns_of_a_hull_start_no_track():
+    live, claimed = _scan_of_returns(extent=25.0)          # a hull of about 17 m
+    assert len(live) == 1 and live[0].confirmed            # the copy begun on plot 1 goes
+    assert claimed.tolist() == [True, True, True, False]   # plot 3 is someone else's
+    # the negative control: a point target (extent 0, noise 0.1 m) claims no neighbour
+    live, claimed = _scan_of_returns(extent=0.0)
+    assert len(live) == 2 and claimed.tolist() == [True, True, False, False]
+
+
+def _hull_scans(returns: int, seed: int = 4):
+    """A 20 m hull moving east at 8 m/s seen 10 times a second for 30 s by a sensor whose
+    stated noise, 3 m, spans the hull (its residuals' spread against GNSS, planar): 1 to
+    ``returns`` plots a scan along its side, and a clutter plot a scan over 1 km^2.
+    (t, p, R, scan, truth): truth 0 the hull's plots, -1 clutter."""
+    rng = np.random.default_rng(seed)
+    t, p, scan, truth = [], [], [], []
+    for k in range(300):
+        centre = np.array([0.8 * k, 80.0, 0.0])
+        for _ in range(rng.integers(1, returns + 1)):
+            p.append(centre + [rng.uniform(-10.0, 10.0), rng.normal(0.0, 0.5), 0.0])
+            t.append(0.1 * k), scan.append(k), truth.append(0)
+        for _ in range(rng.poisson(1)):
+            p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
+            t.append(0.1 * k), scan.append(k), truth.append(-1)
+    n = len(t)
+    return (np.array(t), np.array(p), np.tile(np.diag([9.0, 9.0, 1.0]), (n, 1, 1)),
+            np.array(scan), np.array(truth))
+
+
+def _hull_tracks(label: np.ndarray, truth: np.ndarray) -> int:
+    """How many tracks hold at least 10 of the hull's plots."""
+    held = label[(truth == 0) & (label >= 0)]
+    return int((np.bincount(held) >= 10).sum()) if held.size else 0
+
+
+def test_a_sensor_with_several_returns_gets_one_track_per_hull(monkeypatch):
+    """A lidar's 1-6 returns of one hull a scan: the sensor is measured to give several
+    returns (most plots have a neighbour within their noise) and the hull gets one track;
+    one plot a scan, among the same clutter, gives no such evidence."""
+    gate = float(pt.chi2_ppf(pt.GATE_PROBABILITY, 3))
+    t, p, R, scan, truth = _hull_scans(6)
+    assert pt.neighbour_share(p, R, scan, gate, True) >= pt.SEVERAL_RETURNS_SHARE
+    assert _hull_tracks(pt.track_plots(t, p, R, scan, planar=True), truth) == 1
+    # the negative control: without the rule each return begins its own copy of the hull
+    monkeypatch.setattr(pt, "SEVERAL_RETURNS_SHARE", 2.0)
+    assert _hull_tracks(pt.track_plots(t, p, R, scan, planar=True), truth) >= 2
+    t, p, R, scan, truth = _hull_scans(1)
+    assert pt.neighbour_share(p, R, scan, gate, True) < 0.2
+
+
+def test_a_point_targets_extent_is_not_used():
+    """A track whose signed extent mean is within 2 standard errors of 0 adds none to its
+    plot noise; a hull's, well above, is used."""
+    tr = pt._start_imm(np.zeros(3), np.eye(3), 0.0, 0.0, 0)
+    tr.rows, tr.noise, tr.extent = list(range(10)), 4.0, 1.5       # se 4 * sqrt(0.1) = 1.3
+    assert pt.extent_in_use(tr, 2) == 0.0
+    tr.extent = 21.0
+    assert pt.extent_in_use(tr, 2) == 21.0
