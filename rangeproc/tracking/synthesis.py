@@ -75,6 +75,7 @@ from rangeproc.tracking.objects import (
 )
 from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
+from rangeproc.tracking.plot_tails import stray_tails
 from rangeproc.tracking.plot_tracker import (
     PlotTiming,
     plot_timing,
@@ -189,6 +190,7 @@ def sensor_segments(sensor: int, rows: SensorRows
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
                                  track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
                                              planar, timing.stamp_sigma))
+            label = stray_tails(timing.clock, label)
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, timing.scan[label == k])
