@@ -22,14 +22,14 @@ plots, their positions), in the range ENU frame.
     track's speed (its upper bound) to ``MANOEUVRE_FLOOR``: a boat at 4 m/s is not given a
     fighter's 480 m between two scans, which took sea clutter into its track at every missed
     scan and split it.
-  - *Clutter* (:func:`clutter_density`): a spatial clutter map estimated from the sensor's
+  - *Clutter* (``tracking.clutter_map``): a spatial clutter map estimated from the sensor's
     own plots: the plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot sigmas
     (east, north and, for a radar that measures elevation, up), each plot's own cell counted
     without the plot itself, shrunk toward the sensor-wide density with the weight of
     ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
     same cells scan after scan, so tracks there need far stronger evidence than tracks in
     open water or open sky; cells with plots in most scans are reported as stationary
-    returns (:func:`stationary_returns`). A moored boat is such a return while it lies
+    returns (``clutter_map.stationary_returns``). A moored boat is such a return while it lies
     still; when it leaves, its plots move out of its cell and it is tracked from there.
   - *Existence* (the track score, a sequential probability ratio test): each plot a track
     takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
@@ -76,6 +76,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from rangeproc.quantiles import chi2_ppf
+from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -118,14 +119,6 @@ CLUTTER_SCORE = float(np.log(MISSED_TRACK_PROBABILITY / (1.0 - FALSE_TRACK_PROBA
 #: A track ends when its score falls this far below the best it reached: ``MAX_MISSES``
 #: misses in a row.
 DELETE_DROP = float(-MAX_MISSES * np.log1p(-DETECTION_PROBABILITY))
-#: Clutter map: cells of this many median plot sigmas along each axis; each cell's density
-#: shrunk toward the sensor-wide mean with the weight of this many cells (a Gamma prior).
-CLUTTER_CELL_SIGMAS = 3.0
-CLUTTER_PRIOR_CELLS = 1.0
-#: A clutter-map cell with plots in at least this share of the scans is reported as a
-#: stationary return (a moving object crosses a cell in a few scans); at most this many.
-STATIONARY_SHARE = 0.5
-STATIONARY_MAX = 50
 #: Revisit periods (s) tried first and last by :func:`free_revisit`; the estimate is accepted
 #: when it agrees with the revisit tracked with to ``REVISIT_AGREEMENT`` (relative).
 REVISIT_TRIAL = 4.0
@@ -211,67 +204,6 @@ def free_revisit(t: np.ndarray, p: np.ndarray, R: np.ndarray, frame: np.ndarray,
             return estimate
         trial = estimate
     return trial
-
-
-def _clutter_cells(p: np.ndarray, R: np.ndarray, planar: bool
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The clutter map's cells of plots p (N, 3) ENU m with covariances R (N, 3, 3): cell of
-    each plot (N,) (an index into the occupied cells), plots per occupied cell, and the cell
-    size (axes,) m: ``CLUTTER_CELL_SIGMAS`` median plot sigmas along east, north and (unless
-    ``planar``) up."""
-    axes = 2 if planar else 3
-    sig = np.sqrt(np.maximum(np.einsum("nii->ni", R)[:, :axes], 1e-12))
-    cell = CLUTTER_CELL_SIGMAS * np.median(sig, axis=0)                 # (axes,) m
-    index = np.floor(p[:, :axes] / cell).astype(np.int64)
-    _, inverse, counts = np.unique(index, axis=0, return_inverse=True, return_counts=True)
-    return inverse.ravel(), counts, cell
-
-
-def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool
-                    ) -> np.ndarray:
-    """(N,) the clutter density (plots per scan per m^2, or per m^3 unless ``planar``) at each
-    plot's place: the sensor's spatial clutter map (module docstring: *Clutter map*).
-
-    p: (N, 3) ENU m; R: (N, 3, 3) m^2; n_scans: scans (or revisits) the plots span; planar:
-    the sensor measures no elevation (cells in east and north only).
-    """
-    axes = 2 if planar else 3
-    if p.shape[0] == 0:
-        return np.zeros(0)
-    inverse, counts, cell = _clutter_cells(p, R, planar)
-    volume = float(np.prod(cell))
-    box = float(np.prod(np.ptp(p[:, :axes], axis=0) + cell))
-    mean_count = p.shape[0] * volume / box                    # the sensor-wide mean per cell
-    n = max(float(n_scans), 1.0)
-    others = counts[inverse] - 1.0                             # the plot itself left out
-    return (others + CLUTTER_PRIOR_CELLS * mean_count) / \
-        ((1.0 + CLUTTER_PRIOR_CELLS) * n * volume)
-
-
-def stationary_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool
-                       ) -> list[dict[str, float]]:
-    """The clutter map's cells that hold plots in at least ``STATIONARY_SHARE`` of the scans:
-    quays, moored boats, shore and other stationary returns, which the track score treats as
-    clutter. Each {"e", "n", "u": the mean position of its plots (range ENU m), "share": the
-    share of the scans (revisits) with a plot there, "plots": its plots}, most persistent
-    first, at most ``STATIONARY_MAX`` of them. Arguments as :func:`clutter_density`, with
-    ``scan`` (N,) the plots' scans (:attr:`PlotTiming.scan`)."""
-    usable = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
-    p, R, scan = p[usable], R[usable], np.asarray(scan)[usable]
-    n_scans = np.unique(scan).size
-    if n_scans == 0:
-        return []
-    inverse, counts, _ = _clutter_cells(p, R, planar)
-    scans_in = np.array([np.unique(scan[inverse == c]).size for c in range(counts.size)])
-    share = scans_in / n_scans
-    out = []
-    for c in np.argsort(-share, kind="stable"):
-        if share[c] < STATIONARY_SHARE or len(out) >= STATIONARY_MAX:
-            break
-        mean = p[inverse == c].mean(axis=0)
-        out.append({"e": float(mean[0]), "n": float(mean[1]), "u": float(mean[2]),
-                    "share": float(share[c]), "plots": int(counts[c])})
-    return out
 
 
 @dataclass(slots=True)
@@ -606,29 +538,6 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     for n, tr in enumerate(confirmed):
         label[np.asarray(tr.rows)] = n
     return label
-
-
-def neighbour_share(p: np.ndarray, R: np.ndarray, scan: np.ndarray, gate: float,
-                    planar: bool) -> float:
-    """The share of plots with another plot of the same scan within the chi-square ``gate``
-    of their two noises (p (N, 3) m, R (N, 3, 3) m^2, scan (N,); east and north only when
-    ``planar``): near 1 for a sensor that gives several returns per object a scan (a lidar
-    whose stated noise, its residuals' spread against GNSS, spans the hull), small for one
-    plot per object a scan, where only objects closer than their noise and clutter give
-    pairs."""
-    axes = 2 if planar else 3
-    order = np.argsort(scan, kind="stable")
-    bounds = np.flatnonzero(np.diff(scan[order])) + 1
-    near = 0
-    for rows in np.split(order, bounds):
-        for lo in range(0, rows.size if rows.size > 1 else 0, 64):  # blocks of 64 plots
-            a = rows[lo:lo + 64]
-            dp = p[a][:, None, :axes] - p[rows][None, :, :axes]           # (b, m, axes)
-            C = R[a][:, None, :axes, :axes] + R[rows][None, :, :axes, :axes]
-            m2 = np.einsum("abi,abi->ab", dp, np.linalg.solve(C, dp[..., None])[..., 0])
-            m2[np.arange(a.size), lo + np.arange(a.size)] = np.inf       # not itself
-            near += int((m2 <= gate).any(axis=1).sum())
-    return near / max(p.shape[0], 1)
 
 
 def _pair_close(tr: _ImmTrack, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,

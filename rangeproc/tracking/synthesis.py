@@ -76,12 +76,8 @@ from rangeproc.tracking.objects import (
 from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plot_tails import stray_tails
-from rangeproc.tracking.plot_tracker import (
-    PlotTiming,
-    plot_timing,
-    stationary_returns,
-    track_plots,
-)
+from rangeproc.tracking.clutter_map import stationary_returns
+from rangeproc.tracking.plot_tracker import PlotTiming, plot_timing, track_plots
 from rangeproc.tracking.reassociation import reassociate_plots
 from rangeproc.tracking.plots import plot_positions, several_objects
 from rangeproc.tracking.relay import (
@@ -124,7 +120,7 @@ class Synthesis:
     per sensor index ``row_object``/``row_segment``/``row_reason`` (N,) arrays over its
     SensorRows; the hypothesis searches run (``searches``); ids of discovered objects;
     per sensor index with angle-only plots, (their rows, those associated) (step 6); per plot
-    sensor index, its stationary returns (``tracking.plot_tracker.stationary_returns``); the
+    sensor index, its stationary returns (``tracking.clutter_map.stationary_returns``); the
     rounds of step 5 (``tracking.reassociation``: rounds, converged, plots moved per round)
     and its ambiguous stretches (object ids)."""
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rangeproc.tracking.plot_tracker import plot_timing, stationary_returns, track_plots
+from rangeproc.tracking.clutter_map import stationary_returns
+from rangeproc.tracking.plot_tracker import plot_timing, track_plots
 from rangeproc.tracking.plots import jump_share, plot_positions, several_objects
 
 SIG = np.array([30.0, 2e-3, 2e-3])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import rangeproc.tracking.plot_tracker as pt
+from rangeproc.tracking.clutter_map import neighbour_share
 
 def _mean_extent(update, spread: float, seed: int = 3) -> float:
     """Mean extent (m^2) a track reaches over 900 plots whose innovations scatter ``spread``
@@ -95,13 +96,13 @@ def test_a_sensor_with_several_returns_gets_one_track_per_hull(monkeypatch):
     one plot a scan, among the same clutter, gives no such evidence."""
     gate = float(pt.chi2_ppf(pt.GATE_PROBABILITY, 3))
     t, p, R, scan, truth = _hull_scans(6)
-    assert pt.neighbour_share(p, R, scan, gate, True) >= pt.SEVERAL_RETURNS_SHARE
+    assert neighbour_share(p, R, scan, gate, True) >= pt.SEVERAL_RETURNS_SHARE
     assert _hull_tracks(pt.track_plots(t, p, R, scan, planar=True), truth) == 1
     # the negative control: without the rule each return begins its own copy of the hull
     monkeypatch.setattr(pt, "SEVERAL_RETURNS_SHARE", 2.0)
     assert _hull_tracks(pt.track_plots(t, p, R, scan, planar=True), truth) >= 2
     t, p, R, scan, truth = _hull_scans(1)
-    assert pt.neighbour_share(p, R, scan, gate, True) < 0.2
+    assert neighbour_share(p, R, scan, gate, True) < 0.2
 
 
 def test_a_point_targets_extent_is_not_used():
