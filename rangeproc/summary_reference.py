@@ -6,23 +6,16 @@ declarations into the page's Markdown tables, so the page cannot list a key the 
 write or miss one it does. ``docs/outputs.md`` holds one marker line per table
 (:func:`marker`, e.g. ``<!-- summary.json: sensors -->``); the docs build puts the table in
 its place through the MkDocs hook ``docs/hooks/summary_reference.py``.
-``python -m rangeproc.summary_reference [FILE]`` prints ``docs/outputs.md`` with the tables
-in place (or writes FILE).
 """
 from __future__ import annotations
 
 import re
-import sys
 from collections.abc import Iterator
-from pathlib import Path
 
 from rangeproc.summary_types import DOCUMENTED, Declared, declared_keys
 
 #: A marker line of the outputs page: the name of a section of ``summary_types.DOCUMENTED``.
 MARKER = re.compile(r"^<!-- summary\.json: ([a-z_]+) -->$", re.MULTILINE)
-
-#: The outputs page, from the repository root.
-OUTPUTS_PAGE = Path("docs") / "outputs.md"
 
 
 def marker(section: str) -> str:
@@ -63,19 +56,3 @@ def fill(markdown: str) -> str:
                              f"(declared: {', '.join(known)})")
         return section_table(m.group(1))
     return MARKER.sub(table, markdown)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m rangeproc.summary_reference [FILE]``: print the outputs page with its
-    tables in place, or write FILE."""
-    args = sys.argv[1:] if argv is None else argv
-    text = fill(OUTPUTS_PAGE.read_text(encoding="utf-8"))
-    if args:
-        Path(args[0]).write_text(text, encoding="utf-8")
-    else:
-        sys.stdout.write(text)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
