@@ -33,7 +33,14 @@ from numba import njit
 
 from rangeproc.estimation.moments import LIN_NOISE_SHARE, cross_moments
 from rangeproc.estimation.update import specialise_update
-from rangeproc.models.measurement import AZIMUTH, CARTESIAN, N_COMPONENTS, SPHERICAL, wrap_angle
+from rangeproc.models.measurement import (
+    AZIMUTH,
+    CARTESIAN,
+    N_COMPONENTS,
+    SPHERICAL,
+    slant_terms,
+    wrap_angle,
+)
 from rangeproc.models.motion import N_KINEMATIC
 
 #: The state size of the fast path (compile-time constant) and the Jacobian columns its rows
@@ -74,11 +81,7 @@ def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray
             for j in range(NP):
                 H[a, j] = Qr[i, a, j]
         return
-    rho2 = d0 * d0 + d1 * d1
-    r = max(math.sqrt(rho2 + d2 * d2), 1e-9)
-    r2 = r * r
-    rho = max(math.sqrt(rho2), 1e-9 * r + 1e-12)
-    rho2 = rho * rho
+    r, r2, rho, rho2 = slant_terms(d0, d1, d2)
     if want0:
         h[0] = r
         jr0 = d0 / r

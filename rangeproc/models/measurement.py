@@ -53,6 +53,19 @@ def wrap_angle(a: float) -> float:
     return w
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def slant_terms(d0: float, d1: float, d2: float) -> tuple[float, float, float, float]:
+    """Slant range ``r``, ``r^2``, horizontal range ``rho`` and ``rho^2`` (m, m^2) of the
+    sensor-local vector ``d`` (m), guarded away from zero (``r`` >= 1e-9 m, ``rho`` >=
+    1e-9 r + 1e-12 m: an object at the sensor or at its zenith keeps finite Jacobians). The
+    one definition for the spherical model here and the fast path (``estimation.fast_update``).
+    """
+    rho2 = d0 * d0 + d1 * d1
+    r = max(math.sqrt(rho2 + d2 * d2), 1e-9)
+    rho = max(math.sqrt(rho2), 1e-9 * r + 1e-12)
+    return r, r * r, rho, rho * rho
+
+
 @njit(cache=True, error_model="numpy")
 def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
             h: np.ndarray, H: np.ndarray) -> None:
@@ -88,11 +101,7 @@ def measure(model: int, x: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.nda
                 H[3 + i, 3 + j] = Qr[i, j]
         return
     # SPHERICAL: Jacobians with respect to the local vectors d, w, then chained through Qr.
-    rho2 = d0 * d0 + d1 * d1
-    r = max(math.sqrt(rho2 + d2 * d2), 1e-9)
-    r2 = r * r
-    rho = max(math.sqrt(rho2), 1e-9 * r + 1e-12)
-    rho2 = rho * rho
+    r, r2, rho, rho2 = slant_terms(d0, d1, d2)
     dw = d0 * w0 + d1 * w1 + d2 * w2
     h[0] = r
     h[1] = math.atan2(d0, d1)
