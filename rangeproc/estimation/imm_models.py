@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rangeproc.models.motion import white_jerk_q
+from rangeproc.models.motion import white_acceleration_q, white_jerk_q
 from rangeproc.settings import IMM_MODELS
 
 CV, CA, CT = 0, 1, 2
@@ -48,7 +48,6 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
     for i in range(n):
         F[i, i] = 1.0
     dt2 = dt * dt
-    dt3 = dt2 * dt
     qa = q * 1.0                                          # white-acceleration PSD, m^2/s^3
     for ax in range(3):
         p, v, a = ax, 3 + ax, 6 + ax
@@ -62,10 +61,9 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
             Q[a, p] = Q[p, a]
             Q[a, v] = Q[v, a]
         else:                                              # white acceleration, a reset
-            Q[p, p] = qa * dt3 / 3.0
-            Q[p, v] = Q[v, p] = qa * dt2 / 2.0
-            Q[v, v] = qa * dt
-            Q[a, a] = qa * dt
+            Q[p, p], Q[p, v], Q[v, v] = white_acceleration_q(dt, qa)
+            Q[v, p] = Q[p, v]
+            Q[a, a] = Q[v, v]
             F[a, a] = 0.0
             if code == CV:
                 F[p, v] = dt

@@ -75,6 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
 from rangeproc.tracking.plots import (
@@ -83,7 +84,6 @@ from rangeproc.tracking.plots import (
     INITIATION_SPEED,
     MAX_MISSES,
     MAX_TURN_SECONDS,
-    cv_predict,
     is_framed,
     is_rotating,
     revisit_period,
