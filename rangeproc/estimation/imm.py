@@ -4,7 +4,8 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
 ``[p, v, a]`` (range ENU) and mixes them every epoch through a Markov chain of model switches:
 
 1. mixing: ``c_j = sum_i pi_ij mu_i``, ``mu_i|j = pi_ij mu_i / c_j``, each model starts from
-   the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
+   the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means;
+   ``estimation.imm_models.mix``, the one IMM interaction, also the plot tracker's);
 2. model-conditioned prediction with the model's own transition and process noise;
 3. the epoch's rows update every model by the same compiled update as the single filter
    (``moments.row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
@@ -59,6 +60,7 @@ from rangeproc.estimation.imm_models import (
     CT,
     combine,
     dense_predict,
+    mix,
     model_matrices,
     switch_matrix,
     turn_rate,
@@ -151,15 +153,7 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
             if dt != last_dt:                               # regular steps: computed once
                 switch_matrix(Lam, dt, Pi, swork)
                 last_dt = dt
-            for j in range(r):                              # 1. mixing
-                acc = 0.0
-                for a in range(r):
-                    acc += Pi[a, j] * mu[a]
-                cbar[j] = max(acc, 1e-300)
-            for j in range(r):
-                for a in range(r):
-                    wmix[a] = Pi[a, j] * mu[a] / cbar[j]
-                combine(X, PP, wmix, X0[j], P0m[j], dx)
+            mix(Pi, mu, X, PP, cbar, wmix, X0, P0m, dx)     # 1. mixing
             for j in range(r):                              # 2. model-conditioned prediction
                 X[j] = X0[j]
                 PP[j] = P0m[j]

@@ -3,6 +3,16 @@ and Kim's smoother, ``estimation.imm_smoother``): the model codes, each model's 
 process noise over a step (``model_matrices``, with the coordinated turn's rate ``turn_rate``),
 the step's model-switch matrix ``expm(Lam dt)`` (``switch_matrix``), the dense prediction and
 the moment-matched mixture (``combine``). The models are described in ``estimation.imm``.
+
+The IMM interaction (Blom and Bar-Shalom 1988) is defined here once, for every IMM of the
+package: the predicted model probabilities ``c_j = sum_i pi_ij mu_i`` (floored at
+:data:`MIN_PROBABILITY`), the mixing weights ``mu_i|j = pi_ij mu_i / c_j`` and each model's
+mixed start, the moments ``x0_j = sum_i mu_i|j x_i``,
+``P0_j = sum_i mu_i|j (P_i + (x_i - x0_j)(x_i - x0_j)^T)``. :func:`mix` is the compiled form
+(the fusion's IMM, one track), :func:`mix_moments` the same expressions in the same order over
+numpy arrays of many tracks (the plot tracker, ``tracking.plot_tracker``), so both give the
+same bits. :func:`uniform_switch_matrix` is ``switch_matrix``'s closed form for the chain in
+which every switch is alike (the plot tracker's).
 """
 from __future__ import annotations
 
@@ -11,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rangeproc.models.motion import white_jerk_q
+from rangeproc.models.motion import white_acceleration_q, white_jerk_q
 from rangeproc.settings import IMM_MODELS
 
 CV, CA, CT = 0, 1, 2
@@ -21,6 +31,8 @@ MODEL_NAMES = IMM_MODELS
 MAX_TURN_RATE = 0.5
 #: Horizontal speed (m/s) below which the CT model does not turn.
 MIN_TURN_SPEED = 1.0
+#: Floor of a predicted model probability ``c_j`` (its log and the division by it stay finite).
+MIN_PROBABILITY = 1e-300
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -48,7 +60,6 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
     for i in range(n):
         F[i, i] = 1.0
     dt2 = dt * dt
-    dt3 = dt2 * dt
     qa = q * 1.0                                          # white-acceleration PSD, m^2/s^3
     for ax in range(3):
         p, v, a = ax, 3 + ax, 6 + ax
@@ -62,10 +73,9 @@ def model_matrices(code: int, dt: float, q: float, omega: float, F: np.ndarray,
             Q[a, p] = Q[p, a]
             Q[a, v] = Q[v, a]
         else:                                              # white acceleration, a reset
-            Q[p, p] = qa * dt3 / 3.0
-            Q[p, v] = Q[v, p] = qa * dt2 / 2.0
-            Q[v, v] = qa * dt
-            Q[a, a] = qa * dt
+            Q[p, p], Q[p, v], Q[v, v] = white_acceleration_q(dt, qa)
+            Q[v, p] = Q[p, v]
+            Q[a, a] = Q[v, v]
             F[a, a] = 0.0
             if code == CV:
                 F[p, v] = dt
@@ -193,3 +203,73 @@ def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.
         for a in range(n):
             for b in range(n):
                 out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def predicted_probabilities(Pi: np.ndarray, mu: np.ndarray, c: np.ndarray) -> None:
+    """``c_j = max(sum_i Pi[i, j] mu_i, MIN_PROBABILITY)`` into ``c`` (r,): the model
+    probabilities ``mu`` (r,) carried over a step of switch matrix ``Pi`` (r, r)."""
+    r = mu.shape[0]
+    for j in range(r):
+        acc = 0.0
+        for a in range(r):
+            acc += Pi[a, j] * mu[a]
+        c[j] = max(acc, MIN_PROBABILITY)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def mix(Pi: np.ndarray, mu: np.ndarray, X: np.ndarray, P: np.ndarray, c: np.ndarray,
+        w: np.ndarray, X0: np.ndarray, P0: np.ndarray, dx: np.ndarray) -> None:
+    """The IMM interaction of one track (module docstring), into ``c`` (r,) the predicted
+    model probabilities and ``X0`` (r, n), ``P0`` (r, n, n) the models' mixed starts, from
+    the switch matrix ``Pi`` (r, r) (``Pi[i, j]`` = P(model j next | model i now)), the model
+    probabilities ``mu`` (r,) and the models' states ``X`` (r, n), covariances ``P``
+    (r, n, n); ``w`` (r,), ``dx`` (n,) work."""
+    r = mu.shape[0]
+    predicted_probabilities(Pi, mu, c)
+    for j in range(r):                                     # mu_i|j, then the moments
+        for a in range(r):
+            w[a] = Pi[a, j] * mu[a] / c[j]
+        combine(X, P, w, X0[j], P0[j], dx)
+
+
+def mix_moments(Pi: np.ndarray, mu: np.ndarray, X: np.ndarray, P: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mix` over the leading axes (...) of many tracks, in numpy: ``Pi`` (..., r, r),
+    ``mu`` (..., r), ``X`` (..., r, n), ``P`` (..., r, n, n) -> the predicted model
+    probabilities c (..., r) and the mixed starts X0 (..., r, n), P0 (..., r, n, n). The
+    same expressions in the same order as :func:`mix` and :func:`combine` (a component of
+    zero weight adds nothing), so a track gets the same bits from either."""
+    r = mu.shape[-1]
+    c = np.empty(mu.shape)
+    for j in range(r):
+        acc = np.zeros(mu.shape[:-1])
+        for a in range(r):
+            acc += Pi[..., a, j] * mu[..., a]
+        c[..., j] = np.maximum(acc, MIN_PROBABILITY)
+    X0 = np.zeros(X.shape)
+    P0 = np.zeros(P.shape)
+    for j in range(r):
+        w = [Pi[..., a, j] * mu[..., a] / c[..., j] for a in range(r)]
+        with np.errstate(invalid="ignore"):               # 0 * nan, then left out
+            for a in range(r):
+                wx = w[a][..., None] * X[..., a, :]
+                X0[..., j, :] += np.where(w[a][..., None] != 0.0, wx, 0.0)
+            for a in range(r):
+                dx = X[..., a, :] - X0[..., j, :]
+                term = w[a][..., None, None] * (P[..., a, :, :]
+                                                + dx[..., :, None] * dx[..., None, :])
+                P0[..., j, :, :] += np.where(w[a][..., None, None] != 0.0, term, 0.0)
+    return c, X0, P0
+
+
+def uniform_switch_matrix(dt: np.ndarray, r: int, sojourn: float) -> np.ndarray:
+    """(..., r, r) model-switch matrices over steps ``dt`` (...) s (either sign) of the chain
+    that stays in each model ``sojourn`` s on average and then goes to each other model alike
+    (the generator ``fusion.passes.imm_generator`` makes): ``expm(Lam |dt|)``
+    (:func:`switch_matrix`) in closed form, ``(1 - exp(-r |dt| / (sojourn (r - 1)))) / r``
+    off the diagonal, the rest of each row on it."""
+    other = (1.0 - np.exp(-r * np.abs(dt) / (sojourn * (r - 1)))) / r
+    Pi = other[..., None, None] * np.ones((r, r))
+    Pi[..., np.arange(r), np.arange(r)] = 1.0 - (r - 1) * other[..., None]
+    return Pi

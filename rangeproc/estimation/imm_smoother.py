@@ -9,7 +9,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.imm_models import combine, model_matrices, switch_matrix
+from rangeproc.estimation.imm_models import (
+    combine,
+    model_matrices,
+    predicted_probabilities,
+    switch_matrix,
+)
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
 
 
@@ -42,6 +47,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
     Xk = np.zeros((r, n))                 # zeros: a pruned model's rows are never set
     Pk = np.zeros((r, n, n))
     wc = np.empty(r)                                        # combination weights
+    wpair = np.empty(r)                                     # model j's pair weights
     Xp = np.empty((r, r, n))                                # pair means at k
     Pp = np.empty((r, r, n, n))
     W = np.empty((r, r))
@@ -71,11 +77,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
         if dt != last_dt:                                   # regular steps: computed once
             switch_matrix(Lam, dt, Pi, swork)
             last_dt = dt
-        for i in range(r):
-            acc = 0.0
-            for j in range(r):
-                acc += Pi[j, i] * mu[k, j]
-            cbar[i] = max(acc, 1e-300)
+        predicted_probabilities(Pi, mu[k], cbar)
         total = 0.0
         for j in range(r):
             row = 0.0
@@ -106,23 +108,9 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
             wsum += wc[j]
             if tot <= 0.0:                                  # skipped: filled in below
                 continue
-            for a in range(n):
-                acc = 0.0
-                for i in range(r):
-                    acc += W[j, i] / tot * Xp[j, i, a]
-                Xk[j, a] = acc
-            for a in range(n):
-                for b in range(n):
-                    Pk[j, a, b] = 0.0
             for i in range(r):
-                if W[j, i] == 0.0:
-                    continue
-                w = W[j, i] / tot
-                for a in range(n):
-                    dx[a] = Xp[j, i, a] - Xk[j, a]
-                for a in range(n):
-                    for b in range(n):
-                        Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
+                wpair[i] = W[j, i] / tot
+            combine(Xp[j], Pp[j], wpair, Xk[j], Pk[j], dx)  # model j's smoothed mixture
         for j in range(r):
             wc[j] /= wsum
         combine(Xk, Pk, wc, xs[k], T, dx)

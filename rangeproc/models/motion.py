@@ -10,6 +10,13 @@ The transition is a Kronecker product ``F = F1(dt) (x) I3`` of the 3x3 per-axis 
 ``F1 = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]]`` and the noise is ``Q = q Q1(dt) (x) I3`` with
 ``Q1 = [[dt^5/20, dt^4/8, dt^3/6], [dt^4/8, dt^3/3, dt^2/2], [dt^3/6, dt^2/2, dt]]``
 (Bar-Shalom, Li & Kirubarajan, *Estimation with Applications to Tracking*, sec. 6.2.3).
+
+The constant-velocity (CV) model of the plot tracker and of the IMM's CV and CT models is the
+per-axis ``[[1, dt], [0, 1]]`` on (position, velocity), driven by white acceleration of PSD
+``q`` (m^2/s^3): ``Q1 = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]`` (same reference, sec. 6.2.2),
+``white_acceleration_q``. Each noise block is written once, in a form numba compiles for the
+fusion's kernels and numpy runs over arrays (``.py_func``) for the trackers of ``tracking/``
+(:func:`cv_predict`), so both evaluate the same expressions.
 """
 from __future__ import annotations
 
@@ -35,6 +42,22 @@ def white_jerk_q(dt, q):
     dt3 = dt2 * dt
     return (q * dt3 * dt2 / 20.0, q * dt2 * dt2 / 8.0, q * dt3 / 6.0, q * dt3 / 3.0,
             q * dt2 / 2.0, q * dt)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def white_acceleration_q(dt, q):
+    """The white-acceleration process noise ``q Q1(dt)`` of one axis of the CV model: its
+    three distinct entries ``(q00, q01, q11)`` = ``q (dt^3/3, dt^2/2, dt)`` (m^2, m^2/s,
+    m^2/s^2 for ``q`` in m^2/s^3, ``dt`` >= 0 in s).
+
+    The one definition of the CV model's process noise: the IMM's CV and CT models
+    (``estimation.imm_models``) compile it, the plot tracker (:func:`cv_predict`) runs it
+    over arrays (``white_acceleration_q.py_func``; ``dt`` and ``q`` scalars or arrays of one
+    shape). A backward step (``dt`` < 0) has the noise ``D Q1(|dt|) D`` with
+    ``D = diag(1, -1)``: ``q01`` changes sign.
+    """
+    dt2 = dt * dt
+    return q * (dt2 * dt) / 3.0, q * dt2 / 2.0, q * dt
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -95,3 +118,24 @@ def ca_transition(n: int, dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
 def ca_transition_py(dt: float, q: float, n: int = N_KINEMATIC) -> tuple[np.ndarray, np.ndarray]:
     """Python-callable CA transition (same code), for tests and initialisation."""
     return ca_transition(n, float(dt), float(q))
+
+
+def cv_predict(x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float | np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Constant-velocity prediction of states x (..., 6) ``[e, n, u, ve, vn, vu]`` (m, m/s)
+    and covariances P (..., 6, 6) over dt (...) s, either sign, with white-acceleration PSD
+    q (m^2/s^3; a scalar or an array of dt's shape): ``F x``, ``F P F^T + Q`` with
+    ``F = [[1, dt], [0, 1]] (x) I3`` and ``Q`` the blocks of :func:`white_acceleration_q`
+    (of ``|dt|``; a backward step's velocity terms change sign). Numpy, vectorised over the
+    leading axes (the trackers' K tracks or (track, plot) pairs)."""
+    dt = np.asarray(dt, dtype=float)
+    q00, q01, q11 = white_acceleration_q.py_func(np.abs(dt), q)
+    q01 = np.copysign(q01, dt)                              # D Q1(|dt|) D backwards
+    F = np.broadcast_to(np.eye(6), (*dt.shape, 6, 6)).copy()
+    Q = np.zeros((*dt.shape, 6, 6))
+    for k in range(3):
+        F[..., k, k + 3] = dt
+        Q[..., k, k] = q00
+        Q[..., k, k + 3] = Q[..., k + 3, k] = q01
+        Q[..., k + 3, k + 3] = q11
+    return np.einsum("...ij,...j->...i", F, x), F @ P @ np.swapaxes(F, -1, -2) + Q

@@ -24,6 +24,7 @@ step 5 repairs them where another sensor holds one of the objects.
 from __future__ import annotations
 
 import numpy as np
+from rangeproc.models.motion import white_acceleration_q
 from rangeproc.quantiles import chi2_ppf
 
 from rangeproc.tracking.plots import (
@@ -108,7 +109,7 @@ def _close_boundaries(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndar
     bounds = np.flatnonzero(np.diff(scan[order])) + 1
     starts = np.concatenate([[0], bounds])
     revisit = revisit_period(t[tracked], scan[tracked])
-    manoeuvre = ACCELERATION_PSD * revisit ** 3 / 3.0 * np.eye(3)
+    manoeuvre = white_acceleration_q.py_func(revisit, ACCELERATION_PSD)[0] * np.eye(3)
     for lo, rows in zip(starts, np.split(order, bounds)):
         if rows.size < 2:
             continue

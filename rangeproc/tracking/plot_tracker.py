@@ -75,6 +75,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
+from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
 from rangeproc.tracking.plots import (
@@ -83,7 +85,6 @@ from rangeproc.tracking.plots import (
     INITIATION_SPEED,
     MAX_MISSES,
     MAX_TURN_SECONDS,
-    cv_predict,
     is_framed,
     is_rotating,
     revisit_period,
@@ -238,19 +239,13 @@ def _imm_predict(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, dt: np.ndarray
 
     Markov switching between the models with mean sojourn ``MODEL_SOJOURN`` s: over dt the
     probability to be in another model is ``(1 - exp(-M dt / tau)) / M`` (M models, every
-    switch alike); the mixed initial conditions are the usual IMM moments (Blom and
-    Bar-Shalom 1988)."""
+    switch alike, ``estimation.imm_models.uniform_switch_matrix``); the mixed initial
+    conditions are the IMM moments of the fusion's IMM (Blom and Bar-Shalom 1988;
+    ``estimation.imm_models.mix_moments``), each model's prediction the CV model's
+    (``models.motion.cv_predict``)."""
     M = len(MODEL_PSD)
-    other = (1.0 - np.exp(-M * np.abs(dt) / MODEL_SOJOURN)) / M     # (K,)
-    Pi = other[:, None, None] * np.ones((M, M))
-    Pi[:, np.arange(M), np.arange(M)] = 1.0 - (M - 1) * other[:, None]   # (K, M, M)
-    joint = Pi * mu[:, :, None]                                    # i -> j, (K, M, M)
-    c = joint.sum(axis=1)                                          # (K, M)
-    w = joint / np.maximum(c[:, None, :], 1e-300)                  # mu_{i|j}
-    x0 = np.einsum("kij,kid->kjd", w, xs)                          # (K, M, 6)
-    d = xs[:, :, None, :] - x0[:, None, :, :]                      # (K, i, j, 6)
-    P0 = (np.einsum("kij,kide->kjde", w, Ps)
-          + np.einsum("kij,kijd,kije->kjde", w, d, d))
+    Pi = uniform_switch_matrix(dt, M, MODEL_SOJOURN)               # (K, M, M)
+    c, x0, P0 = mix_moments(Pi, mu, xs, Ps)                        # (K, M), (K, M, 6), ...
     xp = np.empty_like(x0)
     Pp = np.empty_like(P0)
     for m, q in enumerate(MODEL_PSD):

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
+from rangeproc.models.motion import cv_predict
 
 #: White-acceleration PSD ((m/s^2)^2/s) of the single CV model of ``tracking.plot_swaps`` (a
 #: 3 g manoeuvre over a few seconds stays inside its gate).
@@ -223,18 +224,3 @@ def update_track(tr: _Track, x: np.ndarray, P: np.ndarray, p: np.ndarray, R: np.
     tr.last_scan = scan
     tr.hits += 1
     tr.rows.append(row)
-
-
-def cv_predict(x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Constant-velocity prediction of states x (..., 6) and covariances P (..., 6, 6) over
-    dt (...) s with white-acceleration PSD q ((m/s^2)^2/s)."""
-    F = np.broadcast_to(np.eye(6), (*dt.shape, 6, 6)).copy()
-    Q = np.zeros((*dt.shape, 6, 6))
-    adt = np.abs(dt)
-    for k in range(3):
-        F[..., k, k + 3] = dt
-        Q[..., k, k] = q * adt ** 3 / 3
-        Q[..., k, k + 3] = Q[..., k + 3, k] = q * dt * adt / 2
-        Q[..., k + 3, k + 3] = q * adt
-    return np.einsum("...ij,...j->...i", F, x), F @ P @ np.swapaxes(F, -1, -2) + Q

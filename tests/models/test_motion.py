@@ -1,10 +1,16 @@
-"""The white-jerk noise and the CA step are written once (``models.motion``) and every user
-(filters, smoothers, IMM, strong tracking, the trackers of ``tracking/``) gets the same maths."""
+"""The white-jerk and white-acceleration noise and the CA and CV steps are written once
+(``models.motion``) and every user (filters, smoothers, IMM, strong tracking, the trackers of
+``tracking/``) gets the same maths."""
 import numpy as np
 import pytest
 
 from rangeproc.estimation.kernels import add_q
-from rangeproc.models.motion import ca_transition_py, white_jerk_q
+from rangeproc.models.motion import (
+    ca_transition_py,
+    cv_predict,
+    white_acceleration_q,
+    white_jerk_q,
+)
 from rangeproc.tracking.score import _carry
 from rangeproc.tracking.segments import _predict
 
@@ -18,24 +24,36 @@ def _q1(dt: float, q: float) -> np.ndarray:
     return np.array([[q00, q01, q02], [q01, q11, q12], [q02, q12, q22]])
 
 
+def _q1_cv(dt: float, q: float) -> np.ndarray:
+    q00, q01, q11 = white_acceleration_q(dt, q)
+    return np.array([[q00, q01], [q01, q11]])
+
+
+#: (noise block, the last column of the per-axis transition F1(s)): white jerk (CA), white
+#: acceleration (CV).
+NOISES = {"jerk": (_q1, lambda s: _f1(s)[:, 2]), "acceleration": (_q1_cv, lambda s: [s, 1.0])}
+
+
+@pytest.mark.parametrize("noise", NOISES)
 @pytest.mark.parametrize("dt", [1e-3, 0.1, 3.0])
-def test_white_jerk_q_is_the_integral_of_the_jerk_noise(dt):
-    # Q1 = q int_0^dt F1(s) g g^T F1(s)^T ds, g = (0, 0, 1): a degree-4 polynomial,
-    # exact with 3-point Gauss-Legendre
+def test_noise_block_is_the_integral_of_the_white_noise(dt, noise):
+    # Q1 = q int_0^dt F1(s) g g^T F1(s)^T ds, g the last unit vector: a polynomial of degree
+    # 4 (jerk) or 2 (acceleration), exact with 3-point Gauss-Legendre
+    block, column = NOISES[noise]
     nodes, weights = np.polynomial.legendre.leggauss(3)
-    ref = np.zeros((3, 3))
+    ref = 0.0
     for u, w in zip(nodes, weights):
-        s = 0.5 * dt * (u + 1.0)
-        col = _f1(s)[:, 2]
-        ref += 0.5 * dt * w * 2.5 * np.outer(col, col)
-    np.testing.assert_allclose(_q1(dt, 2.5), ref, rtol=1e-13)
+        col = np.asarray(column(0.5 * dt * (u + 1.0)))
+        ref = ref + 0.5 * dt * w * 2.5 * np.outer(col, col)
+    np.testing.assert_allclose(block(dt, 2.5), ref, rtol=1e-13)
 
 
-def test_white_jerk_q_takes_arrays_like_scalars():
+@pytest.mark.parametrize("noise", [white_jerk_q, white_acceleration_q])
+def test_noise_block_takes_arrays_like_scalars(noise):
     d, q = np.array([0.01, 0.7, 2.0]), np.array([1.0, 30.0, 0.2])
-    arrays = white_jerk_q.py_func(d, q)
+    arrays = noise.py_func(d, q)
     for i in range(3):
-        assert tuple(a[i] for a in arrays) == white_jerk_q(float(d[i]), float(q[i]))
+        assert tuple(a[i] for a in arrays) == noise(float(d[i]), float(q[i]))
 
 
 @pytest.mark.parametrize("dt", [0.4, -0.4])
@@ -81,3 +99,44 @@ def test_segment_prediction_is_one_axis_of_the_ca_model():
     np.testing.assert_allclose(xp, F @ x, rtol=1e-14)
     np.testing.assert_allclose(Pp, F @ P @ F.T + _q1(dt, q), rtol=1e-13)
     assert np.array_equal(Pp, Pp.T)
+
+
+@pytest.mark.parametrize("dt", [0.8, -0.8])
+def test_cv_predict_is_the_cv_model_either_way(dt):
+    # forward: F P F^T + Q(dt); backward: the forward noise carried back, F Q(|dt|) F^T
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(6, 6))
+    P = A @ A.T + np.eye(6)
+    x = rng.normal(size=6)
+    F = np.kron(np.array([[1.0, dt], [0.0, 1.0]]), np.eye(3))
+    Fa = np.kron(np.array([[1.0, abs(dt)], [0.0, 1.0]]), np.eye(3))
+    Qf = np.kron(_q1_cv(abs(dt), 3.0), np.eye(3))
+    Q = Qf if dt > 0 else np.linalg.solve(Fa, Qf) @ np.linalg.solve(Fa, np.eye(6)).T
+    xp, Pp = cv_predict(x, P, np.asarray(dt), 3.0)
+    np.testing.assert_allclose(xp, F @ x, rtol=1e-14)
+    np.testing.assert_allclose(Pp, F @ P @ F.T + Q, rtol=1e-12, atol=1e-12)
+    if dt < 0:                                # negative control: the unsigned formula
+        naive = np.kron(_q1_cv(dt, 3.0), np.eye(3))
+        assert np.linalg.eigvalsh(naive).min() < -1e-3
+
+
+def test_cv_predict_is_the_fusion_imm_cv_model():
+    """The plot tracker's CV prediction (numpy, over many tracks) and the fusion IMM's CV
+    model (compiled, 9 states) give the same position-velocity block."""
+    from rangeproc.estimation.imm_models import CV, dense_predict, model_matrices
+    rng = np.random.default_rng(6)
+    K = 20
+    A = rng.normal(size=(K, 6, 6))
+    P = A @ np.swapaxes(A, 1, 2) + np.eye(6)
+    x = rng.normal(size=(K, 6)) * 50.0
+    dt, q = rng.uniform(0.01, 12.0, K), rng.uniform(0.5, 1200.0, K)
+    xp, Pp = cv_predict(x, P, dt, q)
+    F, Q, xt, T = np.empty((9, 9)), np.empty((9, 9)), np.empty(9), np.empty((9, 9))
+    for k in range(K):
+        x9, P9 = np.zeros(9), np.eye(9)
+        x9[:6], P9[:6, :6] = x[k], P[k]
+        model_matrices(CV, dt[k], q[k], 0.0, F, Q)
+        np.testing.assert_array_equal(Q[:6, :6], np.kron(_q1_cv(dt[k], q[k]), np.eye(3)))
+        dense_predict(F, Q, x9, P9, xt, T)
+        np.testing.assert_allclose(x9[:6], xp[k], rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(P9[:6, :6], Pp[k], rtol=1e-13, atol=1e-9)
