@@ -25,7 +25,7 @@ plots, their positions), in the range ENU frame.
   - *Clutter* (``tracking.clutter_map``): a spatial clutter map estimated from the sensor's
     own plots: the plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot sigmas
     (east, north and, for a radar that measures elevation, up), each plot's own cell counted
-    without the plot itself, shrunk toward the sensor-wide density with the weight of
+    without the plot itself and the plots of the scans around it (its object's own), shrunk toward the sensor-wide density with the weight of
     ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
     same cells scan after scan, so tracks there need far stronger evidence than tracks in
     open water or open sky; cells with plots in most scans are reported as stationary
@@ -481,7 +481,7 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     label = np.full(t.size, -1, dtype=np.int64)
     axes = 2 if planar else 3
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
-    clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar)
+    clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar, clock)
     live: list[_ImmTrack] = []
     done: list[_ImmTrack] = []
     order = np.argsort(scan, kind="stable")
