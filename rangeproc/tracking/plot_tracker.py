@@ -64,6 +64,8 @@ plots, their positions), in the range ENU frame.
   - *Initiation*: an unassigned plot starts a tentative track whose velocity is unknown up to
     ``INITIATION_SPEED`` (3 sigma), so its second plot adds little evidence unless the
     clutter is sparse.
+  - *Retrodiction* (``tracking.retrodiction``): the same tracker run backward in time gives
+    each track the plots before its confirmation that the forward pass left as clutter.
   - *Time stamps*: a radar that stamps a whole scan with one time gives each plot a time up
     to a scan period off; that error, carried along the track's velocity, is part of the
     plot's noise (:attr:`PlotTiming.stamp_sigma`).
@@ -77,6 +79,7 @@ from scipy.optimize import linear_sum_assignment
 
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
+from rangeproc.tracking.retrodiction import backward_labels, retrodicted
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -190,7 +193,7 @@ def free_revisit(t: np.ndarray, p: np.ndarray, R: np.ndarray, frame: np.ndarray,
     no such track is doubled, up to ``REVISIT_MAX``; with none even then, ``REVISIT_MAX``."""
     trial = REVISIT_TRIAL
     for _ in range(4):
-        label = track_plots(t, p, R, frame, (t - t[0]) / trial, planar)
+        label = track_plots(t, p, R, frame, (t - t[0]) / trial, planar, retrodict=False)
         steps = [np.diff(t[label == k]) for k in range(int(label.max()) + 1)
                  if np.count_nonzero(label == k) >= REVISIT_MIN_HITS]
         if not steps:
@@ -442,7 +445,7 @@ def extent_in_use(tr: _ImmTrack, axes: int) -> float:
 
 def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 clock: np.ndarray | None = None, planar: bool = False,
-                stamp_sigma: float = 0.0) -> np.ndarray:
+                stamp_sigma: float = 0.0, retrodict: bool = True) -> np.ndarray:
     """(N,) int64 track label per plot (0, 1, ... in order of first plot; -1 = clutter).
 
     t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) the frames plots are
@@ -451,7 +454,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     measures no elevation (the clutter map and the score in east and north only);
     stamp_sigma: the sigma (s) of a plot's time stamp about its true time (a radar that
     stamps a whole scan with one time: the scan period over sqrt(12)), carried into each
-    plot's position noise along the track's velocity. See the module docstring (*Tracker*)
+    plot's position noise along the track's velocity; retrodict: the tracks' plots before
+    their confirmation found by the tracker run backward in time (``tracking.retrodiction``;
+    off where only the tracks' revisits are wanted). See the module docstring (*Tracker*)
     for the method.
     """
     if clock is None:
@@ -461,13 +466,20 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     if not usable.all():            # plots without a position (no platform geometry)
         if usable.any():
             label[usable] = track_plots(t[usable], p[usable], R[usable], scan[usable],
-                                        clock[usable], planar, stamp_sigma)
+                                        clock[usable], planar, stamp_sigma, retrodict)
         return label
     if t.size == 0:
         return label
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     several = neighbour_share(p, R, scan, gate, planar) >= SEVERAL_RETURNS_SHARE
-    return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
+
+    def tracker(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                clock: np.ndarray) -> np.ndarray:
+        return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
+    label = tracker(t, p, R, scan, clock)
+    if not retrodict:
+        return label
+    return retrodicted(label, backward_labels(tracker, t, p, R, scan, clock), clock)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
