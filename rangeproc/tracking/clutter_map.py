@@ -4,8 +4,14 @@ neighbour in its own scan (:func:`neighbour_share`: several returns of one objec
 
 The density of the sensor's own plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot
 sigmas (east, north and, for a sensor that measures elevation, up), each plot's own cell
-counted without the plot itself, shrunk toward the sensor-wide density with the weight of
-``CLUTTER_PRIOR_CELLS`` cells (a Gamma prior). Quays, moored boats and shore returns give plots
+counted without the plot itself and without the plots of the ``CLUTTER_OWN_SCANS`` scans
+either side of it, shrunk toward the sensor-wide density with the weight of
+``CLUTTER_PRIOR_CELLS`` cells (a Gamma prior). A moving object's own plots fall in its cell
+for as long as it takes to cross it: a boat at 2 m/s gives three plots in a 15 m cell, which
+counted as clutter made its cells 40 times denser than the sea around it (a boat among 5
+clutter plots a scan over 1 km^2 went untracked for 100 s); leaving out the scans around
+each plot removes them, while a stationary return, present in every scan, keeps its density
+(the count over the scans left is scaled back to the whole span). Quays, moored boats and shore returns give plots
 in the same cells scan after scan, so a track there needs far stronger evidence than in open
 water or open sky; cells with plots in most scans are reported as stationary returns.
 """
@@ -17,6 +23,12 @@ import numpy as np
 #: shrunk toward the sensor-wide mean with the weight of this many cells (a Gamma prior).
 CLUTTER_CELL_SIGMAS = 3.0
 CLUTTER_PRIOR_CELLS = 1.0
+#: A plot's own cell is counted without the plots of this many scans (or revisits) either
+#: side of it: an object's own plots while it crosses the cell (module docstring); an object
+#: slower than a cell in this many scans (6 m/s for a 15 m cell and a 2.5 s scan... down to a
+#: third of that, as its plots near the window's edge still count) is partly a stationary
+#: return, which a moored boat is.
+CLUTTER_OWN_SCANS = 5.0
 #: A clutter-map cell with plots in at least this share of the scans is reported as a
 #: stationary return (a moving object crosses a cell in a few scans); at most this many.
 STATIONARY_SHARE = 0.5
@@ -37,13 +49,15 @@ def _clutter_cells(p: np.ndarray, R: np.ndarray, planar: bool
     return inverse.ravel(), counts, cell
 
 
-def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool
-                    ) -> np.ndarray:
+def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool,
+                    clock: np.ndarray | None = None) -> np.ndarray:
     """(N,) the clutter density (plots per scan per m^2, or per m^3 unless ``planar``) at each
     plot's place: the sensor's spatial clutter map (module docstring).
 
     p: (N, 3) ENU m; R: (N, 3, 3) m^2; n_scans: scans (or revisits) the plots span; planar:
-    the sensor measures no elevation (cells in east and north only).
+    the sensor measures no elevation (cells in east and north only); clock: (N,) the plots'
+    time in scans or revisits (``tracking.plot_tracker.PlotTiming.clock``), which leaves out
+    the plots of ``CLUTTER_OWN_SCANS`` scans either side of each plot (None: none left out).
     """
     axes = 2 if planar else 3
     if p.shape[0] == 0:
@@ -54,8 +68,28 @@ def clutter_density(p: np.ndarray, R: np.ndarray, n_scans: float, planar: bool
     mean_count = p.shape[0] * volume / box                    # the sensor-wide mean per cell
     n = max(float(n_scans), 1.0)
     others = counts[inverse] - 1.0                             # the plot itself left out
+    if clock is not None:                    # and the object's own plots around it
+        others = _away_from_own_scans(inverse, np.asarray(clock, dtype=float), others)
     return (others + CLUTTER_PRIOR_CELLS * mean_count) / \
         ((1.0 + CLUTTER_PRIOR_CELLS) * n * volume)
+
+
+def _away_from_own_scans(cell: np.ndarray, clock: np.ndarray, others: np.ndarray
+                         ) -> np.ndarray:
+    """(N,) the other plots of each plot's cell (``others``) less those within
+    ``CLUTTER_OWN_SCANS`` of it in ``clock`` (N,), scaled from the scans left to the whole
+    span. cell: (N,) each plot's cell index."""
+    w = CLUTTER_OWN_SCANS
+    lo, hi = float(clock.min()), float(clock.max())
+    key = cell * (hi - lo + 4.0 * w + 10.0) + (clock - lo)      # cells apart, time within
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    near = np.empty(clock.size)
+    near[order] = (np.searchsorted(ks, ks + w, side="right")
+                   - np.searchsorted(ks, ks - w, side="left") - 1.0)
+    span = hi - lo + 1.0
+    left = span - (np.minimum(clock + w, hi) - np.maximum(clock - w, lo) + 1.0)
+    return np.where(left >= 1.0, (others - near) * span / np.maximum(left, 1.0), others)
 
 
 def stationary_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool

@@ -25,7 +25,7 @@ plots, their positions), in the range ENU frame.
   - *Clutter* (``tracking.clutter_map``): a spatial clutter map estimated from the sensor's
     own plots: the plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot sigmas
     (east, north and, for a radar that measures elevation, up), each plot's own cell counted
-    without the plot itself, shrunk toward the sensor-wide density with the weight of
+    without the plot itself and the plots of the scans around it (its object's own), shrunk toward the sensor-wide density with the weight of
     ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
     same cells scan after scan, so tracks there need far stronger evidence than tracks in
     open water or open sky; cells with plots in most scans are reported as stationary
@@ -64,6 +64,8 @@ plots, their positions), in the range ENU frame.
   - *Initiation*: an unassigned plot starts a tentative track whose velocity is unknown up to
     ``INITIATION_SPEED`` (3 sigma), so its second plot adds little evidence unless the
     clutter is sparse.
+  - *Retrodiction* (``tracking.retrodiction``): the same tracker run backward in time gives
+    each track the plots before its confirmation that the forward pass left as clutter.
   - *Time stamps*: a radar that stamps a whole scan with one time gives each plot a time up
     to a scan period off; that error, carried along the track's velocity, is part of the
     plot's noise (:attr:`PlotTiming.stamp_sigma`).
@@ -79,6 +81,7 @@ from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
 from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
+from rangeproc.tracking.retrodiction import backward_labels, retrodicted
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -191,7 +194,7 @@ def free_revisit(t: np.ndarray, p: np.ndarray, R: np.ndarray, frame: np.ndarray,
     no such track is doubled, up to ``REVISIT_MAX``; with none even then, ``REVISIT_MAX``."""
     trial = REVISIT_TRIAL
     for _ in range(4):
-        label = track_plots(t, p, R, frame, (t - t[0]) / trial, planar)
+        label = track_plots(t, p, R, frame, (t - t[0]) / trial, planar, retrodict=False)
         steps = [np.diff(t[label == k]) for k in range(int(label.max()) + 1)
                  if np.count_nonzero(label == k) >= REVISIT_MIN_HITS]
         if not steps:
@@ -437,7 +440,7 @@ def extent_in_use(tr: _ImmTrack, axes: int) -> float:
 
 def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 clock: np.ndarray | None = None, planar: bool = False,
-                stamp_sigma: float = 0.0) -> np.ndarray:
+                stamp_sigma: float = 0.0, retrodict: bool = True) -> np.ndarray:
     """(N,) int64 track label per plot (0, 1, ... in order of first plot; -1 = clutter).
 
     t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) the frames plots are
@@ -446,7 +449,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     measures no elevation (the clutter map and the score in east and north only);
     stamp_sigma: the sigma (s) of a plot's time stamp about its true time (a radar that
     stamps a whole scan with one time: the scan period over sqrt(12)), carried into each
-    plot's position noise along the track's velocity. See the module docstring (*Tracker*)
+    plot's position noise along the track's velocity; retrodict: the tracks' plots before
+    their confirmation found by the tracker run backward in time (``tracking.retrodiction``;
+    off where only the tracks' revisits are wanted). See the module docstring (*Tracker*)
     for the method.
     """
     if clock is None:
@@ -456,13 +461,20 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     if not usable.all():            # plots without a position (no platform geometry)
         if usable.any():
             label[usable] = track_plots(t[usable], p[usable], R[usable], scan[usable],
-                                        clock[usable], planar, stamp_sigma)
+                                        clock[usable], planar, stamp_sigma, retrodict)
         return label
     if t.size == 0:
         return label
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     several = neighbour_share(p, R, scan, gate, planar) >= SEVERAL_RETURNS_SHARE
-    return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
+
+    def tracker(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
+                clock: np.ndarray) -> np.ndarray:
+        return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
+    label = tracker(t, p, R, scan, clock)
+    if not retrodict:
+        return label
+    return retrodicted(label, backward_labels(tracker, t, p, R, scan, clock), clock)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
@@ -476,7 +488,7 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     label = np.full(t.size, -1, dtype=np.int64)
     axes = 2 if planar else 3
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
-    clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar)
+    clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar, clock)
     live: list[_ImmTrack] = []
     done: list[_ImmTrack] = []
     order = np.argsort(scan, kind="stable")
