@@ -4,16 +4,16 @@ neighbour in its own scan (:func:`neighbour_share`: several returns of one objec
 
 The density of the sensor's own plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot
 sigmas (east, north and, for a sensor that measures elevation, up), each plot's own cell
-counted without the plot itself and without the plots of the ``CLUTTER_OWN_SCANS`` scans
-either side of it, shrunk toward the sensor-wide density with the weight of
-``CLUTTER_PRIOR_CELLS`` cells (a Gamma prior). A moving object's own plots fall in its cell
-for as long as it takes to cross it: a boat at 2 m/s gives three plots in a 15 m cell, which
-counted as clutter made its cells 40 times denser than the sea around it (a boat among 5
-clutter plots a scan over 1 km^2 went untracked for 100 s); leaving out the scans around
-each plot removes them, while a stationary return, present in every scan, keeps its density
-(the count over the scans left is scaled back to the whole span). Quays, moored boats and shore returns give plots
-in the same cells scan after scan, so a track there needs far stronger evidence than in open
-water or open sky; cells with plots in most scans are reported as stationary returns.
+counted without the plot itself and without the plots of the ``CLUTTER_OWN_SCANS`` scans either
+side of it, shrunk toward the sensor-wide density with the weight of ``CLUTTER_PRIOR_CELLS``
+cells (a Gamma prior). A moving object's own plots fall in its cell for as long as it takes to
+cross it: a boat at 2 m/s gives three plots in a 15 m cell, which counted as clutter made its
+cells 40 times denser than the sea around it (a boat among 5 clutter plots a scan over 1 km^2
+went untracked for 100 s); leaving out the scans around each plot removes them, while a
+stationary return, present in every scan, keeps its density (the count over the scans left is
+scaled back to the whole span). Quays, moored boats and shore returns give plots in the same
+cells scan after scan, so a track there needs far stronger evidence than in open water or open
+sky; cells with plots in most scans are reported as stationary returns.
 """
 from __future__ import annotations
 
@@ -24,10 +24,9 @@ import numpy as np
 CLUTTER_CELL_SIGMAS = 3.0
 CLUTTER_PRIOR_CELLS = 1.0
 #: A plot's own cell is counted without the plots of this many scans (or revisits) either
-#: side of it: an object's own plots while it crosses the cell (module docstring); an object
-#: slower than a cell in this many scans (6 m/s for a 15 m cell and a 2.5 s scan... down to a
-#: third of that, as its plots near the window's edge still count) is partly a stationary
-#: return, which a moored boat is.
+#: side of it (module docstring): an object that crosses its cell in fewer scans (a 15 m cell
+#: and a 2.5 s scan: faster than 1.2 m/s) leaves none of its own plots in its density, a
+#: slower one some, and one that lies still (a moored boat) all: a stationary return.
 CLUTTER_OWN_SCANS = 5.0
 #: A clutter-map cell with plots in at least this share of the scans is reported as a
 #: stationary return (a moving object crosses a cell in a few scans); at most this many.

@@ -24,12 +24,13 @@ plots, their positions), in the range ENU frame.
     scan and split it.
   - *Clutter* (``tracking.clutter_map``): a spatial clutter map estimated from the sensor's
     own plots: the plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot sigmas
-    (east, north and, for a radar that measures elevation, up), each plot's own cell counted
-    without the plot itself and the plots of the scans around it (its object's own), shrunk toward the sensor-wide density with the weight of
-    ``CLUTTER_PRIOR_CELLS`` cells. Quays, moored boats and shore returns give plots in the
-    same cells scan after scan, so tracks there need far stronger evidence than tracks in
-    open water or open sky; cells with plots in most scans are reported as stationary
-    returns (``clutter_map.stationary_returns``). A moored boat is such a return while it lies
+    (east, north and, for a radar that measures elevation, up), each plot's own cell
+    counted without the plot itself and the plots of the scans around it (its object's
+    own), shrunk toward the sensor-wide density with the weight of ``CLUTTER_PRIOR_CELLS``
+    cells. Quays, moored boats and shore returns give plots in the same cells scan after
+    scan, so tracks there need far stronger evidence than tracks in open water or open
+    sky; cells with plots in most scans are reported as stationary returns
+    (``clutter_map.stationary_returns``). A moored boat is such a return while it lies
     still; when it leaves, its plots move out of its cell and it is tracked from there.
   - *Existence* (the track score, a sequential probability ratio test): each plot a track
     takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
