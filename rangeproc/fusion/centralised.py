@@ -46,7 +46,7 @@ from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult, PassFilter
 from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
-from rangeproc.fusion.lockout import lockout_time
+from rangeproc.fusion.lockout import clean_restart, lockout_time
 from rangeproc.fusion.lead_in import (
     forward_in_time,
     lead_in_rows,
@@ -164,22 +164,25 @@ def _fuse_cut(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSettin
               tick: Callable[..., None], prior: Prior | None) -> list[FusionResult]:
     """:func:`fuse_span` of one span, cut where its track was locked out of its sparse plots
     (``fusion.lockout``): the rows before and from the cut are estimated each on its own,
-    and the later part is checked again (at most ``MAX_LOCKOUT_CUTS`` cuts). A part that
-    cannot be started from its own fixes leaves the span as it was. Returns the parts'
+    and the later part is checked again (at most ``MAX_LOCKOUT_CUTS`` cuts). The cut stands
+    when the later part alone follows its plots (``lockout.clean_restart``); a part that
+    cannot be started from its own fixes also leaves the span as it was. Returns the parts'
     results in time order (one when nothing was cut)."""
     done: list[FusionResult] = []
     rows, result = batch, fuse_span(batch, rate_hz, settings, tick, prior)
     gate = gate_thresholds(settings.processing.gate_probability)
     quiet = lambda *a, **k: None                                   # noqa: E731
-    for _ in range(MAX_LOCKOUT_CUTS):
+    for _ in range(MAX_LOCKOUT_CUTS if settings.restart_lockouts else 0):
         t_cut = lockout_time(result, gate)
         if t_cut is None:
             break
         k = int(np.searchsorted(rows.t, t_cut, side="left"))
         try:
+            tail = fuse_span(rows.rows(slice(k, None)), rate_hz, settings, quiet)
+            if not clean_restart(tail, result, gate, t_cut):
+                break
             head = fuse_span(rows.rows(slice(0, k)), rate_hz, settings, quiet,
                              prior if not done else None)
-            tail = fuse_span(rows.rows(slice(k, None)), rate_hz, settings, quiet)
         except NoPositionFix:
             break
         log.info("span %.3f to %.3f s: track locked out of its plots at %.3f s; estimated "

@@ -9,7 +9,7 @@ from rangeproc.fusion.batch import MeasurementBatch, SensorRows, empty_rows, mer
 from rangeproc.fusion.centralised import fuse_target, gate_thresholds
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.lockout import SPARSE_STEP_S, lockout_time, sparse_sensors
-from rangeproc.models.measurement import SPHERICAL
+from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 
 SPEED = 250.0            # m/s
 SIGMA = np.array([40.0, 0.002, 0.004])     # a surveillance radar's range (m), angles (rad)
@@ -78,3 +78,25 @@ def test_only_sensors_with_scan_like_steps_are_sparse() -> None:
     sensor = np.concatenate([np.zeros(200), np.ones(14), np.full(20, 2), [3]]).astype(int)
     order = np.argsort(t, kind="stable")
     assert sparse_sensors(sensor[order], t[order]) == [1]
+
+
+def test_plots_missed_while_a_dense_sensor_measures_the_object_cut_nothing() -> None:
+    # two consecutive radar plots 1.5 km long in range (clutter, a wrong association) while
+    # a 1 Hz GPS holds the track: the plots' own trouble, not a lost track
+    batch, (tt, e, n) = radar_plots(5, turn_at=None)
+    radar = SensorRows(t=batch.t, source_row=batch.source_row, station=batch.station,
+                       track=batch.track, model=batch.model, z=batch.z.copy(),
+                       sigma=batch.sigma, s=batch.s, sv=batch.sv, Qr=batch.Qr)
+    radar.z[20:22, 0] += 1500.0
+    tg = np.arange(0.0, 140.0, 1.0)
+    gps = empty_rows(tg.size, CARTESIAN)
+    rng = np.random.default_rng(6)
+    gps["z"][:, :3] = np.column_stack([np.interp(tg, tt, e), np.interp(tg, tt, n),
+                                       np.full(tg.size, 3000.0)]) + rng.normal(0, 3.0, (tg.size, 3))
+    gps["sigma"][:, :3] = 3.0
+    gps_rows = SensorRows(t=tg, source_row=np.arange(tg.size), station=np.full(tg.size, -1),
+                          track=np.full(tg.size, -1), **gps)
+    both = merge([(0, radar), (1, gps_rows)], ("SR1", "G1"))
+    result = fuse_target(both, 1.0, EstimatorSettings())
+    assert len(result.spans) == 1
+    assert lockout_time(result, gate_thresholds(0.9999)) is None
