@@ -46,6 +46,7 @@ from rangeproc.fusion.batch import MeasurementBatch, concat_batches
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult, PassFilter
 from rangeproc.fusion.filter_choice import EKF_SPLINE_FIT, choose_filter
 from rangeproc.fusion.initialise import NoPositionFix, Prior, initial_state, prior_at
+from rangeproc.fusion.lockout import clean_restart, lockout_time
 from rangeproc.fusion.lead_in import (
     forward_in_time,
     lead_in_rows,
@@ -65,6 +66,8 @@ log = logging.getLogger(__name__)
 LEAD_IN_MODELS = (CV, CA)
 #: Packed entries of the kinematic 9x9 block (the first of the packed lower triangle).
 N_PACKED_NODE = 45
+#: Cuts of one span at gate lock-outs of sparse plots at most (``fusion.lockout``).
+MAX_LOCKOUT_CUTS = 4
 
 
 
@@ -120,8 +123,10 @@ def _fuse_spans(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSett
                 for sl in slices]
         with_prior = int(np.argmin(dist))
     if len(slices) == 1:
-        result = fuse_span(batch, rate_hz, settings, tick, prior)
-        return replace(result, spans=((float(batch.t[0]), float(batch.t[-1])),))
+        parts = _fuse_cut(batch, rate_hz, settings, tick, prior)
+        if len(parts) > 1:
+            return _concat(parts, {})
+        return replace(parts[0], spans=((float(batch.t[0]), float(batch.t[-1])),))
     done: list[FusionResult] = []
     unstarted: dict[int, int] = {}
     first_error: NoPositionFix | None = None
@@ -138,7 +143,7 @@ def _fuse_spans(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSett
                 tick(int(ticked) - before, note)
 
         try:
-            done.append(fuse_span(part, rate_hz, settings, span_tick,
+            done.extend(_fuse_cut(part, rate_hz, settings, span_tick,
                                   prior if prior is not None and j == with_prior else None))
         except NoPositionFix as exc:
             first_error = first_error or exc
@@ -153,6 +158,39 @@ def _fuse_spans(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSett
     if int(ticked) < n_passes:
         tick(n_passes - int(ticked), "")
     return _concat(done, unstarted)
+
+
+def _fuse_cut(batch: MeasurementBatch, rate_hz: float, settings: EstimatorSettings,
+              tick: Callable[..., None], prior: Prior | None) -> list[FusionResult]:
+    """:func:`fuse_span` of one span, cut where its track was locked out of its sparse plots
+    (``fusion.lockout``): the rows before and from the cut are estimated each on its own,
+    and the later part is checked again (at most ``MAX_LOCKOUT_CUTS`` cuts). The cut stands
+    when the later part alone follows its plots (``lockout.clean_restart``); a part that
+    cannot be started from its own fixes also leaves the span as it was. Returns the parts'
+    results in time order (one when nothing was cut)."""
+    done: list[FusionResult] = []
+    rows, result = batch, fuse_span(batch, rate_hz, settings, tick, prior)
+    gate = gate_thresholds(settings.processing.gate_probability)
+    quiet = lambda *a, **k: None                                   # noqa: E731
+    for _ in range(MAX_LOCKOUT_CUTS if settings.restart_lockouts else 0):
+        t_cut = lockout_time(result, gate)
+        if t_cut is None:
+            break
+        k = int(np.searchsorted(rows.t, t_cut, side="left"))
+        try:
+            tail = fuse_span(rows.rows(slice(k, None)), rate_hz, settings, quiet)
+            if not clean_restart(tail, result, gate, t_cut):
+                break
+            head = fuse_span(rows.rows(slice(0, k)), rate_hz, settings, quiet,
+                             prior if not done else None)
+        except NoPositionFix:
+            break
+        log.info("span %.3f to %.3f s: track locked out of its plots at %.3f s; estimated "
+                 "again from there", rows.t[0], rows.t[-1], t_cut)
+        done.append(head)
+        rows, result = rows.rows(slice(k, None)), tail
+    done.append(result)
+    return done
 
 
 def _concat(parts: list[FusionResult], unstarted: dict[int, int]) -> FusionResult:

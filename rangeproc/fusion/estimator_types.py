@@ -93,6 +93,9 @@ class EstimatorSettings:
     calibration: what the registration may estimate per sensor index (``fusion.registration``;
         empty: no calibration); refraction: the refraction removed from the rows
         (``fusion.refraction_rows``; None: none).
+    restart_lockouts: cut a span where its track was locked out of its sparse plots and
+        estimate the parts on their own (``fusion.lockout``); the track synthesis's quick
+        trajectories leave it off (``pipeline``: an association trial is no output).
     """
 
     processing: ProcessingSettings = ProcessingSettings()
@@ -105,6 +108,7 @@ class EstimatorSettings:
     ukf: tuple[float, float, float] = (1.0, 2.0, 3.0 - 9)
     calibration: tuple[SensorCalibration | None, ...] = ()
     refraction: RefractionSettings | None = None
+    restart_lockouts: bool = True
 
     @property
     def family(self) -> PassFilter:
