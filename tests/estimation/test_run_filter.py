@@ -115,9 +115,9 @@ def test_a_run_loads_only_the_kernel_of_its_family() -> None:
         "from rangeproc.estimation.forward import FilterSettings, run_filter\n"
         "rows, prior, _ = _line()\n"
         "run_filter(rows, prior, FilterSettings(GATE))\n"
-        "for name, k in forward_loop._KERNELS.items():\n"
-        "    print(name, len(k.signatures))\n")
+        "for (name, n), k in forward_loop._KERNELS.items():\n"
+        "    print(f'{name}/{n}', len(k.signatures))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=300).stdout
     counts = dict(line.split() for line in out.splitlines())
-    assert counts == {"ekf": "1"}
+    assert counts == {"ekf/9": "1"}
