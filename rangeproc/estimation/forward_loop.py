@@ -55,7 +55,7 @@ from rangeproc.estimation.fading import (
 )
 from rangeproc.estimation.kernels import N_OBSERVED, specialise_predict
 from rangeproc.estimation.linalg import pack_n
-from rangeproc.estimation.moments import EKF, UKF, row_moments
+from rangeproc.estimation.moments import EKF, UKF, row_moments, specialise_ukf
 from rangeproc.estimation.spline_filter import (
     SPL_JERK_SPAN,
     SPL_MAX_RATIO,
@@ -126,8 +126,10 @@ def _specialise(family: Family, n_state: int) -> Callable:
     METHOD = -1 if (JERK or FADING or ANOMALY or ADAPTIVE) else (
         UKF if family.update == "ukf" else EKF)
     FAST = METHOD == EKF and n_state == fu.N  # the fused fast path for the common rows
+    UFAST = METHOD == UKF and n_state == fu.N  # the unscented update at the fixed size
     N_STATE = n_state
     predict_epoch = specialise_predict(N_STATE, "always")[4]
+    ukf_fixed = specialise_ukf(N_STATE, "always")
 
     @njit(cache=True, nogil=True, error_model="numpy")
     def forward(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
@@ -245,9 +247,14 @@ def _specialise(family: Family, n_state: int) -> Callable:
                 m = measured_components(z[i], sigma[i], idx, sig_row)
                 dof[i] = m
                 if m > 0:
-                    row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,
-                                x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs,
-                                xsig, h, H, y6, y, C, Z, Hs, sig_row)
+                    if UFAST:                            # all rows, inlined, n fixed
+                        if not ukf_fixed(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m,
+                                         ukf, L, Zs, xsig, h, H, y6, y, C, Z):
+                            raise FloatingPointError("covariance not positive definite in UKF")
+                    else:
+                        row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,
+                                    x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L,
+                                    Zs, xsig, h, H, y6, y, C, Z, Hs, sig_row)
                     if ADAPTIVE:                         # Sage-Husa: windowed noise
                         for a in range(m):
                             y_raw[a] = y[a]
@@ -262,9 +269,14 @@ def _specialise(family: Family, n_state: int) -> Callable:
                                 rms = math.sqrt(rss[g] / (rss_n[g] - 1))
                                 sig_row[a] = min(max(sig_row[a], rms),
                                                  SPL_MAX_RATIO * sig_row[a])
-                    val, ok, n_acc, mask, ll_row = update_row(
-                        y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, ROW_NOISE, sel, sig,
-                        yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                    if UFAST:                            # the fast path's update, P - K HP
+                        val, ok, n_acc, mask, ll_row = fu.update(
+                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, False, False, sel, sig,
+                            yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                    else:
+                        val, ok, n_acc, mask, ll_row = update_row(
+                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, ROW_NOISE, sel,
+                            sig, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
                     loglik = _record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
                     if ADAPTIVE and ok:                  # Sage-Husa window, accepted only
                         for b in range(n_acc):
