@@ -66,6 +66,13 @@ from rangeproc.estimation.imm_models import (
     turn_rate,
 )
 
+#: The per-epoch helpers, inlined into the loop (a call with array arguments costs their
+#: reference counting, several times per model and epoch).
+_combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
+_dense_predict = njit(nogil=True, error_model="numpy", inline="always")(dense_predict.py_func)
+_model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
+    model_matrices.py_func)
+
 class IMMOutput(NamedTuple):
     """:func:`imm_forward`'s results by name (``IMMOutput._make(imm_forward(...))``; the
     compiled kernel returns the plain tuple, in this order; see its Returns)."""
@@ -154,7 +161,7 @@ def _specialise(n_state: int) -> Callable:
                 for j in range(r):
                     for a in range(r):
                         wmix[a] = Pi[a, j] * mu[a] / cbar[j]
-                    combine(X, PP, wmix, X0[j], P0m[j], dx)
+                    _combine(X, PP, wmix, X0[j], P0m[j], dx)
                 for j in range(r):                              # 2. model-conditioned prediction
                     X[j] = X0[j]
                     PP[j] = P0m[j]
@@ -163,8 +170,8 @@ def _specialise(n_state: int) -> Callable:
                     if codes[j] == CA:                          # the single filter's arithmetic
                         predict_epoch(X[j], PP[j], T, epoch_t, q_steps, k)
                     else:
-                        model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
-                        dense_predict(F, Qm, X[j], PP[j], xt, T)
+                        _model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
+                        _dense_predict(F, Qm, X[j], PP[j], xt, T)
             else:
                 for j in range(r):
                     cbar[j] = mu[j]
@@ -239,7 +246,7 @@ def _specialise(n_state: int) -> Callable:
             for j in range(r):
                 mu[j] /= tot
             loglik += top + math.log(tot)
-            combine(X, PP, mu, xt, T, dx)                      # combination
+            _combine(X, PP, mu, xt, T, dx)                      # combination
             for b in range(n):
                 if not math.isfinite(xt[b]):
                     raise FloatingPointError("non-finite state in the IMM filter")
