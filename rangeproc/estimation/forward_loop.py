@@ -53,7 +53,7 @@ from rangeproc.estimation.fading import (
     epoch_innovations,
     fading_factors,
 )
-from rangeproc.estimation.kernels import N_OBSERVED, specialise_predict
+from rangeproc.estimation.kernels import N_OBSERVED, predict_epoch, specialise_predict
 from rangeproc.estimation.linalg import pack_n
 from rangeproc.estimation.moments import EKF, UKF, row_moments, specialise_ukf
 from rangeproc.estimation.spline_filter import (
@@ -112,6 +112,12 @@ _guard_row = njit(nogil=True, error_model="numpy", inline="always")(guard_row.py
 _record_row = njit(nogil=True, error_model="numpy", inline="always")(record_row.py_func)
 
 
+#: The prediction and the unscented moments at the pipeline's state size, inlined (module
+#: globals: a compiled helper held in a closure cell would keep the loop out of the cache).
+_predict_fixed = specialise_predict(N_KINEMATIC, "always")[4]
+_ukf_fixed = specialise_ukf(N_KINEMATIC, "always")
+
+
 def _specialise(family: Family, n_state: int) -> Callable:
     """The loop compiled with ``family``'s steps and the state size ``n_state`` as constants
     (module docstring)."""
@@ -127,9 +133,8 @@ def _specialise(family: Family, n_state: int) -> Callable:
         UKF if family.update == "ukf" else EKF)
     FAST = METHOD == EKF and n_state == fu.N  # the fused fast path for the common rows
     UFAST = METHOD == UKF and n_state == fu.N  # the unscented update at the fixed size
+    FIXED = n_state == N_KINEMATIC           # the fixed-size prediction
     N_STATE = n_state
-    predict_epoch = specialise_predict(N_STATE, "always")[4]
-    ukf_fixed = specialise_ukf(N_STATE, "always")
 
     @njit(cache=True, nogil=True, error_model="numpy")
     def forward(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
@@ -192,7 +197,10 @@ def _specialise(family: Family, n_state: int) -> Callable:
         i = 0
         for k in range(E):
             # --- predict (eq. 6-7), with the spline filter's jerk input (Zhou et al. eqs. 5/6)
-            dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
+            if FIXED:
+                dt = _predict_fixed(x, P, AP, epoch_t, q_steps, k)
+            else:
+                dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
             if JERK and k > 0:
                 add_jerk(x, jerk, dt)
                 for a in range(3):
@@ -248,8 +256,8 @@ def _specialise(family: Family, n_state: int) -> Callable:
                 dof[i] = m
                 if m > 0:
                     if UFAST:                            # all rows, inlined, n fixed
-                        if not ukf_fixed(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m,
-                                         ukf, L, Zs, xsig, h, H, y6, y, C, Z):
+                        if not _ukf_fixed(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m,
+                                          ukf, L, Zs, xsig, h, H, y6, y, C, Z):
                             raise FloatingPointError("covariance not positive definite in UKF")
                     else:
                         row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,

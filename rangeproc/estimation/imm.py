@@ -53,7 +53,7 @@ from rangeproc.estimation.divergence import (
 from rangeproc.estimation.update import row_workspace, update_row
 from rangeproc.estimation.moments import EKF, row_moments
 from rangeproc.estimation import fast_update as fu
-from rangeproc.estimation.kernels import specialise_predict
+from rangeproc.estimation.kernels import predict_epoch, specialise_predict
 from rangeproc.estimation.linalg import pack_n
 from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.estimation.imm_models import (
@@ -90,6 +90,11 @@ class IMMOutput(NamedTuple):
     n_resets: int
 
 
+#: The CA prediction at the fast path's state size, inlined (a module global: a compiled
+#: helper held in a closure cell would keep the loop out of the cache).
+_predict_fixed = specialise_predict(fu.N, "always")[4]
+
+
 def _specialise(n_state: int) -> Callable:
     """:func:`imm_forward`'s loop compiled with the state size ``n_state`` a compile-time
     constant: at the CA model's nine states, the common rows update every model through the
@@ -97,7 +102,6 @@ def _specialise(n_state: int) -> Callable:
     other rows) and the CA prediction is the fixed-size kernel, inlined."""
     N_STATE = n_state
     FAST = n_state == fu.N
-    predict_epoch = specialise_predict(N_STATE, "always")[4]
 
     @njit(cache=True, nogil=True, error_model="numpy")
     def kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
@@ -168,7 +172,10 @@ def _specialise(n_state: int) -> Callable:
                     w = turn_rate(X[j]) if codes[j] == CT else 0.0
                     omega[k, j] = w
                     if codes[j] == CA:                          # the single filter's arithmetic
-                        predict_epoch(X[j], PP[j], T, epoch_t, q_steps, k)
+                        if FAST:
+                            _predict_fixed(X[j], PP[j], T, epoch_t, q_steps, k)
+                        else:
+                            predict_epoch(X[j], PP[j], T, epoch_t, q_steps, k)
                     else:
                         _model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
                         _dense_predict(F, Qm, X[j], PP[j], xt, T)
