@@ -161,10 +161,11 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
     sites = sensor_sites(cfg, frame, rows)
     priors = {tgt.id: target_prior(tgt, frame) for tgt in cfg.targets}
     with clock.stage("associate", 1) as tick:
-        # the association's trial trajectories do not restart locked-out tracks (an object
-        # that loses its plots there is a hint for the association, fusion.lockout)
-        associated = associate(cfg, rows, replace(settings, restart_lockouts=False), priors,
-                               tick)
+        # the association's trial trajectories do not restart locked-out tracks nor discount
+        # correlated rows (an object that loses its plots there, or that fits them only
+        # discounted, is a hint for the association: fusion.lockout, fusion.centralised)
+        trial = replace(settings, restart_lockouts=False, discount_first_pass=False)
+        associated = associate(cfg, rows, trial, priors, tick)
     parts_of = associated.parts_of
     with clock.stage("fuse", len(parts_of) * (1 + settings.processing.noise_passes)) as tick:
         fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)

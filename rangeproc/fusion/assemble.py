@@ -26,9 +26,9 @@ from scipy.spatial.transform import Rotation
 from rangeproc.config import SensorSettings
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.frames.platform import platform_geometry
-from rangeproc.fusion.batch import SensorRows, empty_rows
+from rangeproc.fusion.batch import MeasurementBatch, SensorRows, empty_rows
 from rangeproc.io.logs import SensorLog
-from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+from rangeproc.models.measurement import CARTESIAN, ELEVATION, SPHERICAL
 
 #: rad: 1-sigma of the elevation 0 given to every row of a 2-D radar (a radar file whose
 #: elevation column is empty throughout: a navigation radar's or a scanning lidar's plots).
@@ -72,6 +72,13 @@ def _finish(t: np.ndarray, arrays: dict[str, np.ndarray], log: SensorLog,
     if keep is None or keep.all():
         return rows
     return SensorRows(**{f: getattr(rows, f)[keep] for f in SensorRows.__slots__})
+
+
+def assumed_elevation(batch: MeasurementBatch) -> np.ndarray:
+    """(N,) bool: rows of ``batch`` whose elevation is
+    a 2-D radar's assumption (0 with :data:`PLANE_ELEVATION_SIGMA`), not a measurement."""
+    return ((batch.model == SPHERICAL) & (batch.z[:, ELEVATION] == 0.0)
+            & (batch.sigma[:, ELEVATION] == PLANE_ELEVATION_SIGMA))
 
 
 def _spherical(log: SensorLog, cfg: SensorSettings) -> dict[str, np.ndarray]:

@@ -35,6 +35,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
+from typing import NamedTuple
 
 import numpy as np
 
@@ -53,10 +54,11 @@ from rangeproc.fusion.lead_in import (
     reversed_prior,
     time_reversed,
 )
-from rangeproc.fusion.noise import difference_sigma
-from rangeproc.fusion.passes import constraint_agrees, imm_start, run_pass
+from rangeproc.fusion.noise import correlation_factors, difference_sigma, discounted_sigma
+from rangeproc.fusion.passes import PassResult, constraint_agrees, imm_start, run_pass
 from rangeproc.fusion.refinement import PassInputs, Refinement, refine, searched_q
 from rangeproc.fusion.registration import apply_increments, calibration_covariance
+from rangeproc.fusion.support import position_rows, unsupported_stretches
 from rangeproc.fusion.thinning import PassRows, thinned_pass_rows, thinning_stride
 from rangeproc.quantiles import chi2_ppf
 
@@ -270,6 +272,10 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     first_pass = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
                          settings.with_filter(family.first()), np.empty((0, x0.shape[0])))
     first = first_pass()
+    if p.adapt_noise and p.process_noise is None and settings.discount_first_pass:
+        start = _FirstPass(batch, full, work, q, first_pass, first)
+        batch, full, work, q, first_pass, first = _white_or_discounted(start, grid_t, x0, P0,
+                                                                       gate, settings)
     if "norm-constraint" in family.family.adds and rho is None:
         rho = estimate_norm(first.xs[work.grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None
@@ -290,6 +296,58 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
             rho, st = None, free
     return _result(st, full, settings, rho, (float(full.epoch_t[0]), x0, P0) if started
                    else None)
+
+
+class _FirstPass(NamedTuple):
+    """A span's rows with their sigmas, on its epochs (``full``) and as the passes before
+    the last one use them (``work``), the process noise (E,) and the first pass (its call
+    and result)."""
+
+    batch: MeasurementBatch
+    full: PassRows
+    work: PassRows
+    q: np.ndarray
+    run: Callable[[], PassResult]
+    out: PassResult
+
+
+def _white_or_discounted(white: _FirstPass, grid_t: np.ndarray, x0: np.ndarray,
+                         P0: np.ndarray, gate: np.ndarray, settings: EstimatorSettings
+                         ) -> _FirstPass:
+    """The first pass with every error taken as white (``white``) or, where that pass
+    leaves stretches of the span unsupported by its own position rows (``fusion.support``:
+    no output would be written there) and sensors' residuals are correlated in time
+    (``fusion.noise.correlation_factors``), the process noise searched again and the pass
+    run again with those rows discounted: whichever leaves less time unsupported (a tie
+    keeps the white pass)."""
+    before = unsupported_time(white.work.batch, white.out)
+    if before <= 0.0:
+        return white
+    factors = correlation_factors(white.work.batch, white.out.res, white.out.used)
+    if not factors:
+        return white
+    p = settings.processing
+    batch = white.batch.with_sigma(discounted_sigma(white.batch, factors))
+    full = PassRows.of(batch, grid_t)
+    work = thinned_pass_rows(full, grid_t, p.noise_passes)
+    q = _first_q(full, work, x0, P0, gate, settings)
+    run = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
+                  settings.with_filter(settings.family.first()), np.empty((0, x0.shape[0])))
+    again = _FirstPass(batch, full, work, q, run, run())
+    after = unsupported_time(white.work.batch, again.out)
+    log.info("pass 1: errors correlated in time (%s): %.1f s unsupported white, %.1f s "
+             "discounted", ", ".join(f"{batch.sensor_ids[s]}[{c}] x{f:.2f}"
+                                     for (s, c), f in factors.items()), before, after)
+    return again if after < before else white
+
+
+def unsupported_time(batch: MeasurementBatch, out: PassResult) -> float:
+    """Seconds of ``batch``'s span that a pass ``out`` leaves unsupported by its position
+    rows (``fusion.support.unsupported_stretches``, judged at the rows' own sigmas)."""
+    is_position, fits = position_rows(batch, out.used, out.res)
+    t0, t1 = float(batch.t[0]), float(batch.t[-1])
+    return sum(min(hi, t1) - max(lo, t0)
+               for lo, hi in unsupported_stretches(batch.t, is_position, fits))
 
 
 def _start_state(batch: MeasurementBatch, t0: float, prior: Prior | None, from_prior: bool

@@ -96,6 +96,10 @@ class EstimatorSettings:
     restart_lockouts: cut a span where its track was locked out of its sparse plots and
         estimate the parts on their own (``fusion.lockout``); the track synthesis's quick
         trajectories leave it off (``pipeline``: an association trial is no output).
+    discount_first_pass: run the first pass again with the rows of sensors whose first-pass
+        residuals are correlated in time discounted, where that fits more of the span's
+        position rows (``fusion.centralised``); the association's trials leave it off (a
+        trial that fits only with its rows discounted is a hint that they are two objects').
     """
 
     processing: ProcessingSettings = ProcessingSettings()
@@ -109,6 +113,7 @@ class EstimatorSettings:
     calibration: tuple[SensorCalibration | None, ...] = ()
     refraction: RefractionSettings | None = None
     restart_lockouts: bool = True
+    discount_first_pass: bool = True
 
     @property
     def family(self) -> PassFilter:

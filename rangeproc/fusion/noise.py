@@ -36,8 +36,9 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d, median_filter
 
 from rangeproc.editing.robust import MAD_TO_SIGMA
+from rangeproc.fusion.assemble import assumed_elevation
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL
+from rangeproc.models.measurement import AZIMUTH, ELEVATION, N_COMPONENTS, SPHERICAL
 
 #: Codes of :func:`residual_sigma`'s down-weighting reasons.
 BURST, HUBER = 1, 2
@@ -183,6 +184,44 @@ def lag_correlation(t: np.ndarray, u: np.ndarray, use: np.ndarray) -> float:
         return 0.0
     den = np.sqrt(np.sum(a * a) * np.sum(b * b))
     return float(np.sum(a * b) / den) if den > 0 else 0.0
+
+
+def correlation_factors(batch: MeasurementBatch, res: np.ndarray, used: np.ndarray
+                        ) -> dict[tuple[int, int], float]:
+    """The correlation discount (sigma factor > 1) of each (sensor index, component) whose
+    residuals ``res`` (N, 6) over the accepted components ``used`` (N, 6) have a lag-1
+    correlation above ``RHO_MIN`` (:func:`lag_correlation` of ``res / sigma``,
+    :func:`correlation_discount`); components with white residuals are not listed.
+
+    Used on the first pass (``fusion.centralised``): the process-noise search and the first
+    pass take errors as white, so a camera's slowly varying bearing error, or the returns of
+    the side of a hull a sensor sees for a while, read as manoeuvre; the likelihood then asks
+    for a process noise that lets the track follow them, and between the sparse rows that fix
+    position the track leaves the object. A 2-D radar's assumed elevation
+    (``fusion.assemble.assumed_elevation``) is left out: its residual is the object's height
+    above the sensor's tilted plane, slow by nature, and a discount would free the height the
+    assumption is there to hold."""
+    out: dict[tuple[int, int], float] = {}
+    assumed = assumed_elevation(batch)
+    for sensor in np.unique(batch.sensor):
+        rows = np.flatnonzero(batch.sensor == sensor)
+        for c in range(N_COMPONENTS):
+            u = res[rows, c] / batch.sigma[rows, c]
+            measured = used[rows, c] & ~assumed[rows] if c == ELEVATION else used[rows, c]
+            factor = correlation_discount(lag_correlation(batch.t[rows], u, measured))
+            if factor > 1.0:
+                out[(int(sensor), c)] = factor
+    return out
+
+
+def discounted_sigma(batch: MeasurementBatch, factors: dict[tuple[int, int], float]
+                     ) -> np.ndarray:
+    """Per-row sigma (N, 6) of ``batch`` with each (sensor index, component)'s factor of
+    :func:`correlation_factors` applied."""
+    sigma = batch.sigma.copy()
+    for (sensor, c), factor in factors.items():
+        sigma[batch.sensor == sensor, c] *= factor
+    return sigma
 
 
 def correlation_discount(rho: float) -> float:

@@ -41,6 +41,8 @@ COMPONENTS = {
 
 #: Component index of an angle that wraps at +-pi (the azimuth of SPHERICAL).
 AZIMUTH = 1
+#: Component index of the elevation of SPHERICAL.
+ELEVATION = 2
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

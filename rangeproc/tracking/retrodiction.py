@@ -3,10 +3,11 @@ the plots before its confirmation that the forward pass left as clutter.
 
 A forward track is confirmed only once its score (``tracking.plot_tracker``, Wald's sequential
 test) has gathered enough evidence: a slow boat among quay and sea clutter, one plot a scan,
-can need tens of seconds (its second plot, its velocity unknown up to ``tracking.plots.INITIATION_SPEED``,
-costs the score several units, and each later plot gains only the log of its likelihood over
-the dense clutter's), and its plots before that moment stay clutter although they are its
-plots. Offline every plot is at hand, so the tracker also runs over
+can need tens of seconds (its second plot, its velocity unknown up to
+``tracking.plots.INITIATION_SPEED``, costs the score several units, and each later plot gains
+only the log of its likelihood over the dense clutter's), and its plots before that moment
+stay clutter although they are its plots. Offline every plot is at hand, so the tracker also
+runs over
 the plots in reverse time order, with the same models, gates, scores and deletion (the
 evidence asked of a track is the same in both directions): a backward track is confirmed near
 the object's last plots and followed back toward its first. Each backward track that shares at

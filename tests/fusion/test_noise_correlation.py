@@ -10,6 +10,8 @@ from rangeproc.fusion.noise import (
     RHO_MAX,
     RHO_MIN,
     correlation_discount,
+    correlation_factors,
+    discounted_sigma,
     lag_correlation,
     residual_sigma,
 )
@@ -83,6 +85,31 @@ def test_residual_sigma_discounts_correlated_rows_only(rho, inflated):
         assert want > 3.0 and typical == pytest.approx(want, rel=0.1)
     else:
         assert typical == pytest.approx(1.0, abs=1e-12)
+
+
+def test_first_pass_factors_name_the_correlated_component_only():
+    """Two cameras in one batch, one with AR(1) bearing errors (0.85), one white: only the
+    first earns a factor, the AR(1) variance ratio of its residuals' correlation, and only its
+    rows' azimuth sigma carries it."""
+    n = 600
+    a, b = _batch(np.zeros(n)), _batch(np.zeros(n))
+    both = MeasurementBatch(np.r_[a.t, b.t], np.r_[a.model, b.model], np.r_[a.z, b.z],
+                            np.r_[a.sigma, b.sigma], np.r_[a.s, b.s], np.r_[a.sv, b.sv],
+                            np.r_[a.Qr, b.Qr], np.r_[np.zeros(n, np.int64), np.ones(n, np.int64)],
+                            np.r_[a.source_row, b.source_row], np.r_[a.station, b.station],
+                            np.r_[a.track, b.track], ("EO", "IR"))
+    r = np.full((2 * n, 6), np.nan)
+    r[:n, 1] = 2e-3 * _ar1(0.85, n, 3)
+    r[n:, 1] = 2e-3 * _ar1(0.0, n, 4)
+    factors = correlation_factors(both, r, np.isfinite(r))
+    assert list(factors) == [(0, 1)]
+    rho = lag_correlation(both.t[:n], r[:n, 1], np.ones(n, bool))
+    assert factors[(0, 1)] == pytest.approx(correlation_discount(rho)) and factors[(0, 1)] > 3.0
+    sigma = discounted_sigma(both, factors)
+    assert np.allclose(sigma[:n, 1], 1e-3 * factors[(0, 1)])
+    others = np.ones(sigma.shape, bool)
+    others[:n, 1] = False
+    assert np.array_equal(sigma[others], both.sigma[others])
 
 
 def test_summary_shows_each_sensors_correlation(sample_run, tmp_path):
