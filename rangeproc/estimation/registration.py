@@ -35,6 +35,7 @@ from numba import njit
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from rangeproc.models.measurement import N_COMPONENTS, SPHERICAL, innovation, measure
+from rangeproc.models.motion import axes_blocks, ca_steps
 from rangeproc.parallel import row_chunks, thread_map
 
 #: Calibration slots of a sensor, in the order of the ``slots`` table (-1 = not estimated).
@@ -263,13 +264,6 @@ def _postfit_rows(meas_epoch: np.ndarray, node: np.ndarray, node_t: np.ndarray, 
             out[i, k] = acc
 
 
-def _order_blocks(M: np.ndarray) -> np.ndarray:
-    """(G, 3, 3) order-space blocks -> (G, 9, 9) state blocks ``M (x) I3`` (state index
-    ``3 * order + axis``, ``models.motion``)."""
-    out = np.einsum("gij,ab->giajb", M, np.eye(3))
-    return out.reshape(M.shape[0], N_NODE, N_NODE)
-
-
 def process_blocks(node_t: np.ndarray, q: np.ndarray, x_node: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Normal-equation terms of the process rows between consecutive nodes.
@@ -284,15 +278,9 @@ def process_blocks(node_t: np.ndarray, q: np.ndarray, x_node: np.ndarray
     rhs = np.zeros((G, N_NODE))
     if G < 2:
         return diag, np.zeros((0, N_NODE, N_NODE)), rhs
-    d = np.diff(node_t)
-    one, zero = np.ones_like(d), np.zeros_like(d)
-    F1 = np.stack([np.stack([one, d, 0.5 * d * d], -1), np.stack([zero, one, d], -1),
-                   np.stack([zero, zero, one], -1)], -2)
-    Q1 = np.stack([np.stack([d**5 / 20, d**4 / 8, d**3 / 6], -1),
-                   np.stack([d**4 / 8, d**3 / 3, d**2 / 2], -1),
-                   np.stack([d**3 / 6, d**2 / 2, d], -1)], -2) * q[:, None, None]
+    F1, Q1 = ca_steps(np.diff(node_t), q)
     Qi = np.linalg.inv(Q1)
-    F, W = _order_blocks(F1), _order_blocks(Qi)
+    F, W = axes_blocks(F1), axes_blocks(Qi)
     FtW = np.einsum("gji,gjk->gik", F, W)                     # F^T Q^-1
     diag[:-1] += np.einsum("gij,gjk->gik", FtW, F)
     diag[1:] += W

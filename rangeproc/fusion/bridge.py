@@ -21,29 +21,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from rangeproc.models.motion import axes_blocks, ca_steps
+
 
 def ca_transition(dt: np.ndarray) -> np.ndarray:
-    """(M, 9, 9) constant-acceleration transitions over ``dt`` (M,) s, state [p, v, a]."""
-    dt = np.asarray(dt, dtype=float)
-    F = np.broadcast_to(np.eye(9), (dt.size, 9, 9)).copy()
-    for ax in range(3):
-        F[:, ax, 3 + ax] = dt
-        F[:, ax, 6 + ax] = 0.5 * dt * dt
-        F[:, 3 + ax, 6 + ax] = dt
-    return F
+    """(M, 9, 9) constant-acceleration transitions over ``dt`` (M,) s, state [p, v, a]
+    (``models.motion.ca_steps``)."""
+    return axes_blocks(ca_steps(np.atleast_1d(np.asarray(dt, dtype=float)))[0])
 
 
 def ca_noise(dt: np.ndarray, q: float) -> np.ndarray:
-    """(M, 9, 9) white-jerk process noise over ``|dt|`` (M,) s with PSD ``q`` (m^2/s^5)."""
-    a = np.abs(np.asarray(dt, dtype=float))
-    Q = np.zeros((a.size, 9, 9))
-    terms = {(0, 0): a**5 / 20, (0, 1): a**4 / 8, (0, 2): a**3 / 6, (1, 1): a**3 / 3,
-             (1, 2): a**2 / 2, (2, 2): a}
-    for ax in range(3):
-        for (i, j), v in terms.items():
-            Q[:, 3 * i + ax, 3 * j + ax] = q * v
-            Q[:, 3 * j + ax, 3 * i + ax] = q * v
-    return Q
+    """(M, 9, 9) white-jerk process noise over ``|dt|`` (M,) s with PSD ``q`` (m^2/s^5)
+    (``models.motion.ca_steps``)."""
+    a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
+    return axes_blocks(ca_steps(a, q)[1])
 
 
 def _fit(t: np.ndarray, ta: float, xa: np.ndarray, Pa: np.ndarray, tb: float,

@@ -115,6 +115,31 @@ def ca_transition(n: int, dt: float, q: float) -> tuple[np.ndarray, np.ndarray]:
     return F, Q
 
 
+def ca_steps(dt: np.ndarray, q: float | np.ndarray = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Per-axis CA blocks of many steps for array code: ``F1`` (M, 3, 3) from
+    :func:`ca_axis_step` and ``q Q1`` (M, 3, 3) from :func:`white_jerk_q`, for steps ``dt``
+    (M,) s >= 0 and PSD ``q`` (m^2/s^5; a scalar or (M,)). The numpy form of
+    :func:`ca_blocks` (``fusion.bridge``, ``estimation.registration``)."""
+    dt = np.asarray(dt, dtype=float)
+    one, zero = np.ones_like(dt), np.zeros_like(dt)
+    h2 = 0.5 * dt * dt
+    cols = [ca_axis_step.py_func(*e, dt, h2) for e in ((one, zero, zero), (zero, one, zero),
+                                                      (zero, zero, one))]
+    F1 = np.stack([np.stack(c, -1) for c in cols], -1)
+    q00, q01, q02, q11, q12, q22 = (np.broadcast_to(v, dt.shape)
+                                    for v in white_jerk_q.py_func(dt, q))
+    Q1 = np.stack([np.stack([q00, q01, q02], -1), np.stack([q01, q11, q12], -1),
+                   np.stack([q02, q12, q22], -1)], -2)
+    return F1, Q1
+
+
+def axes_blocks(B: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) per-axis blocks -> (M, 9, 9) state blocks ``B (x) I3`` (state index
+    ``3 * order + axis``: position, velocity, acceleration, each e, n, u)."""
+    out = np.einsum("mij,ab->miajb", B, np.eye(3))
+    return out.reshape(B.shape[0], N_KINEMATIC, N_KINEMATIC)
+
+
 def ca_transition_py(dt: float, q: float, n: int = N_KINEMATIC) -> tuple[np.ndarray, np.ndarray]:
     """Python-callable CA transition (same code), for tests and initialisation."""
     return ca_transition(n, float(dt), float(q))

@@ -6,6 +6,8 @@ import pytest
 
 from rangeproc.estimation.kernels import add_q
 from rangeproc.models.motion import (
+    axes_blocks,
+    ca_steps,
     ca_transition_py,
     cv_predict,
     white_acceleration_q,
@@ -140,3 +142,17 @@ def test_cv_predict_is_the_fusion_imm_cv_model():
         dense_predict(F, Q, x9, P9, xt, T)
         np.testing.assert_allclose(x9[:6], xp[k], rtol=1e-14, atol=1e-12)
         np.testing.assert_allclose(P9[:6, :6], Pp[k], rtol=1e-13, atol=1e-9)
+
+
+def test_array_steps_are_the_compiled_ca_model():
+    """``ca_steps`` (bridging, registration) and the compiled transition give the same F and
+    Q, step by step; ``axes_blocks`` orders them as the state (position, velocity,
+    acceleration, each e, n, u); a per-step q scales each step's noise."""
+    dt = np.array([0.0, 0.05, 0.4, 2.5, 31.0])
+    q = np.array([0.3, 1.0, 7.0, 0.01, 2.0])
+    F1, Q1 = ca_steps(dt, q)
+    for k in range(dt.size):
+        F, Q = ca_transition_py(dt[k], q[k])
+        np.testing.assert_array_equal(axes_blocks(F1)[k], F)
+        np.testing.assert_allclose(axes_blocks(Q1)[k], Q, rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(ca_steps(dt, 2.0)[1], 2.0 * ca_steps(dt)[1], rtol=1e-14)
