@@ -12,10 +12,12 @@ second moment is a floor for the reference point's spread about the track.
 
 For each plot sensor ``i`` of an object measured by plots alone, the mean horizontal offset
 ``m_s`` (m) of its used range-and-azimuth rows of each scan ``s`` (rows of one time stamp) from
-the smoothed state (``fusion.extent.plot_offsets``) is paired with that of the sensor's next
-scan of the object, ``m_s'``, where the two are at most :data:`MAX_LAG` of the sensor's median
-scan interval apart (a missed scan or two). For white noise ``E[m_s m_s'^T] = 0``; for an offset
-``o`` that persists over the lag it is ``E[o o^T]``. The lag-one autocovariance
+the smoothed state (``fusion.extent.plot_offsets``; rows beyond the 99.9 % chi-square of their
+stated noise left out: a wild row, or a stretch where the track left its rows) is paired
+with that of the sensor's next scan of the object, ``m_s'``, where the two are at most
+:data:`MAX_LAG` of the sensor's median scan interval apart (a missed scan or two). For
+white noise ``E[m_s m_s'^T] = 0``; for an offset ``o`` that persists over the lag it is
+``E[o o^T]``. The lag-one autocovariance
 
     V_i = mean over pairs of ( m_s m_s'^T + m_s' m_s^T ) / 2
 
@@ -44,6 +46,10 @@ RANGE = 0
 #: Consecutive scans of one sensor pair up where at most this many of its median scan
 #: intervals apart (two missed scans at a detection probability of 0.9: 1 %).
 MAX_LAG = 3.0
+#: Chi-square (2 dof, 99.9 %) of a row's offset under its stated noise beyond which the row
+#: is left out: a return that far from the track is no point of the hull the track follows
+#: (a wild row, or a stretch where the track has left its rows).
+CHI2_2_999 = 13.8
 #: Scan pairs a sensor needs for an estimate.
 MIN_PAIRS = 20
 #: The lag-one autocovariance counts where its trace exceeds this many standard errors
@@ -95,6 +101,16 @@ def lag_one_offset(t: np.ndarray, d: np.ndarray, vel: np.ndarray) -> Extent:
                   across=max(0.0, float(np.mean(across))))
 
 
+def stated_m2(d: np.ndarray, los: np.ndarray, r: np.ndarray, s_r: np.ndarray,
+              s_a: np.ndarray) -> np.ndarray:
+    """(M,) the squared Mahalanobis distance of horizontal offsets ``d`` (M, 2) m under the
+    rows' stated noise: ``s_r`` (M,) m along the line of sight ``los`` (M, 2) unit and
+    ``r s_a`` (range (M,) m, azimuth sigma (M,) rad) across it."""
+    along = np.einsum("ki,ki->k", d, los)
+    across = d[:, 1] * los[:, 0] - d[:, 0] * los[:, 1]
+    return (along / np.maximum(s_r, 1e-9)) ** 2 + (across / np.maximum(r * s_a, 1e-9)) ** 2
+
+
 def persistent_offset(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
                       radar: np.ndarray) -> Extent:
     """The largest persistent offset (module docstring) per axis over the plot sensors of the
@@ -109,7 +125,9 @@ def persistent_offset(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
     best = Extent()
     for i in np.unique(batch.sensor[ranged]):
         rows = np.flatnonzero(ranged & (batch.sensor == i))
-        d, _, _ = plot_offsets(batch, xs[rows], rows)
-        e = lag_one_offset(batch.t[rows], d, xs[rows, 3:5])
+        d, los, r = plot_offsets(batch, xs[rows], rows)
+        near = stated_m2(d, los, r, batch.sigma[rows, RANGE], batch.sigma[rows, AZIMUTH]) \
+            <= CHI2_2_999
+        e = lag_one_offset(batch.t[rows][near], d[near], xs[rows[near], 3:5])
         best = Extent(along=max(best.along, e.along), across=max(best.across, e.across))
     return best

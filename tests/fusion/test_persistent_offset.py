@@ -82,3 +82,14 @@ def test_the_reference_spread_takes_the_largest_estimate():
     got = reference_extent(4.0, Extent(along=9.0, across=1.0), Extent(along=2.0, across=16.0))
     assert got == Extent(along=9.0, across=16.0)
     assert reference_extent(4.0, Extent()) == Extent(along=4.0, across=4.0)
+
+
+def test_rows_far_outside_their_stated_noise_are_left_out():
+    # a stretch where the track has left its rows (km off): not the hull; the stated noise's
+    # 99.9 % keeps a hull's offsets of a few sigma
+    from rangeproc.fusion.persistent_offset import CHI2_2_999, stated_m2
+    los = np.tile([0.0, 1.0], (3, 1))
+    d = np.array([[4.0, 3.0], [0.0, 2000.0], [30.0, 0.0]])
+    m2 = stated_m2(d, los, np.full(3, 100.0), np.full(3, 5.0), np.full(3, 0.05))
+    assert m2 == pytest.approx([(3 / 5) ** 2 + (4 / 5) ** 2, (2000 / 5) ** 2, (30 / 5) ** 2])
+    assert list(m2 <= CHI2_2_999) == [True, False, False]
