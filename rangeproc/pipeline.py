@@ -173,7 +173,8 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
         estimated = [oid for oid, _ in fused]
         fused, tracks, residuals, target_summary = settle(
             cfg, frame, fused, settings, sensor_summary, n_no_platform,
-            screened.unit_suspicions, logs, screened.edits, tick)
+            screened.unit_suspicions, logs, screened.edits, tick,
+            getattr(associated.synthesis, "return_spread", None))
     if not tracks:
         raise DataError(f"{cfg.path.name}: no target has usable measurements (after editing: "
                         + "; ".join(f"{sid} {len(lg)} rows" for sid, lg in logs.items()) + ")")

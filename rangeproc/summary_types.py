@@ -343,7 +343,19 @@ class TargetSummary(TypedDict):
         "for the same objects: the hull's 1-sigma spread (m) about the centre of the returns "
         "fitted from the plots, `along` and `across` the heading (0 and 0 for a point, e.g. an "
         "aircraft, or where the plots cannot tell hull from noise); the position covariance "
-        "carries the larger of this and `reference_sigma_m` per axis, turned with the heading")]
+        "carries the largest of this, `reference_sigma_m`, `persistent_offset_sigma_m` and "
+        "`return_spread_sigma_m` per axis, turned with the heading")]
+    persistent_offset_sigma_m: Annotated[ExtentRecord, Doc(
+        "for the same objects: the 1-sigma offset (m) of the returns from the track that "
+        "persists from one scan to the next (the hull's points the sensors see, not their "
+        "noise), `along` and `across` the heading, the largest over the plot sensors (0 and 0 "
+        "where not significant, e.g. an aircraft)")]
+    return_spread_sigma_m: Annotated[float, Doc(
+        "for the same objects: the 1-sigma spread (m, on each horizontal axis) of the reference "
+        "point about the track that the returns within one scan of a sensor giving several "
+        "returns per object a scan (a lidar) show: the object's plot and its further returns "
+        "about their mean, the largest direction's, doubled in variance (the reference and the "
+        "point the track follows are two points of one hull); 0 without such a sensor")]
 
 
 _SCORES = Doc("the chosen association's likelihood score, the best alternative's, whether the "

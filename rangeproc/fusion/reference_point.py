@@ -15,11 +15,15 @@ per horizontal axis (m^2), for each plot sensor ``i`` of the object with stated 
 azimuth sigmas ``s_r`` (m), ``s_a`` (rad), estimated noise ``e_r``, ``e_a`` and median range
 ``R_i`` (m); the range term lies along the line of sight and the azimuth term across it, so
 each axis of an unknown heading gets half of both. The offset is one for every sensor (one
-hull), and each ``v_i`` estimates it; a sensor whose estimated noise exceeds its stated sigma
-(rows of several things, a noise burst) gives 0 and says nothing of it. The largest ``v_i`` is
-taken (a sigma too small is worse than one too large). It is one of two estimates of the same
+hull), and each ``v_i`` estimates it. A component whose estimated noise exceeds its stated
+sigma, significantly for its rows (the variance ratio above ``1 + 3 sqrt(2 / n)``), gives the
+excess ``e^2 - s^2`` instead: its rows spread about the track by more than the user stated,
+by the hull's points (a ship's radar returns along a 30 m hull) or by rows of several things;
+either way the smoother averages it down as white noise where it is not. The largest ``v_i``
+is taken (a sigma too small is worse than one too large). It is one of three estimates of the same
 spread: :func:`reference_extent` joins it with the hull's spread fitted from the returns
-themselves (``fusion.extent``), the larger per axis along and across the heading, and that
+themselves (``fusion.extent``) and with the returns' offsets that persist from scan to scan
+(``fusion.persistent_offset``), the largest per axis along and across the heading, and that
 is added to the horizontal position covariance of every output epoch (a target's
 ``lever_arm`` moves the reported point and leaves the spread: the centre of the returns
 wanders over the hull with the aspect by about as much). Objects with GPS rows or rows of
@@ -37,6 +41,9 @@ from rangeproc.models.measurement import AZIMUTH, CARTESIAN, SPHERICAL
 
 #: The range component of a SPHERICAL row.
 RANGE = 0
+#: A sensor's estimated noise beyond its stated sigma counts where the variance ratio exceeds
+#: 1 by this many of its standard errors (``sqrt(2 / n)`` for n rows).
+EXCESS_SIGMAS = 3.0
 
 
 def reference_variance(batch: MeasurementBatch, noise: dict[tuple[int, int], float],
@@ -59,17 +66,50 @@ def reference_variance(batch: MeasurementBatch, noise: dict[tuple[int, int], flo
         e_r, e_a = noise.get((i, RANGE)), noise.get((i, AZIMUTH))
         if None in (e_r, e_a) or not (np.isfinite(s_r) and np.isfinite(s_a)):
             continue
-        r_med = float(np.median(batch.z[ranged & (batch.sensor == i), RANGE]))
-        v = 0.5 * (max(0.0, s_r**2 - e_r**2) + r_med**2 * max(0.0, s_a**2 - e_a**2))
+        mine = ranged & (batch.sensor == i)
+        r_med = float(np.median(batch.z[mine, RANGE]))
+        n = int(mine.sum())
+        v = 0.5 * (_share(s_r, e_r, n) + r_med**2 * _share(s_a, e_a, n))
         best = max(best, v)
     return float(best)
 
 
-def reference_extent(variance: float, fitted: Extent) -> Extent:
+def _share(stated: float, estimated: float, n: int) -> float:
+    """The variance of one component that the track does not show as noise: the stated
+    variance beyond the estimated one, or the estimated beyond the stated where that excess
+    is significant for ``n`` rows (the variance ratio above ``1 + EXCESS_SIGMAS sqrt(2 / n)``,
+    a chi-square's three sigma); else 0."""
+    if stated >= estimated:
+        return stated**2 - estimated**2
+    if estimated**2 > stated**2 * (1.0 + EXCESS_SIGMAS * np.sqrt(2.0 / max(n, 1))):
+        return estimated**2 - stated**2
+    return 0.0
+
+
+def spread_extent(spread: np.ndarray | None) -> Extent:
+    """The reference point's spread (m^2) about the track that the returns' spread within a
+    scan ``spread`` ((2, 2) m^2 east and north, ``tracking.return_spread``; None: 0) shows:
+    twice its largest eigenvalue, on both axes. The returns show the hull's side facing the
+    sensor, and the hull reaches in any direction at most as far as along the longest spread
+    it shows; the reference point lies anywhere on it, and so does the point the track
+    follows (the returns the tracker took, one a scan): the difference of two points of one
+    hull has twice the hull's spread."""
+    if spread is None:
+        return Extent()
+    v = 2.0 * max(0.0, float(np.linalg.eigvalsh(spread)[-1]))
+    return Extent(along=v, across=v)
+
+
+def reference_extent(variance: float, fitted: Extent, persistent: Extent = Extent(),
+                     spread: Extent = Extent()) -> Extent:
     """The spread (m^2, along and across the heading) of the reference point about the
-    returns that the output carries: the larger, per axis, of the stated-sigma estimate
-    ``variance`` (:func:`reference_variance`, one per horizontal axis) and the hull's spread
-    fitted from the returns ``fitted`` (``fusion.extent.object_extent``). Two estimates of one
-    spread, so the larger is taken, not their sum."""
-    return Extent(along=max(variance, fitted.along), across=max(variance, fitted.across))
+    returns that the output carries: the largest, per axis, of the stated-sigma estimate
+    ``variance`` (:func:`reference_variance`, one per horizontal axis), the hull's spread
+    fitted from the returns ``fitted`` (``fusion.extent.object_extent``) and the offsets of
+    the returns that persist from scan to scan ``persistent``
+    (``fusion.persistent_offset.persistent_offset``) and the returns' spread within a scan
+    ``spread`` (:func:`spread_extent`). Estimates of one spread, so the largest is taken, not
+    their sum."""
+    return Extent(along=max(variance, fitted.along, persistent.along, spread.along),
+                  across=max(variance, fitted.across, persistent.across, spread.across))
 

@@ -21,8 +21,11 @@ from rangeproc.fusion.calibration_summary import calibration_summary, time_offse
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
-from rangeproc.fusion.extent import HEADING_SPEED, held_heading, object_extent, plots_only
-from rangeproc.fusion.reference_point import reference_extent, reference_variance
+from rangeproc.fusion.extent import (HEADING_SPEED, Extent, held_heading, object_extent,
+                                     plots_only)
+from rangeproc.fusion.persistent_offset import persistent_offset
+from rangeproc.fusion.reference_point import (reference_extent, reference_variance,
+                                              spread_extent)
 from rangeproc.fusion.sensor_use import ObjectUse, sensor_use
 from rangeproc.io.logs import SensorLog
 from rangeproc.results import SensorResiduals, TrackEstimate
@@ -123,16 +126,25 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
 
 def _target_summary(track: TrackEstimate, result: FusionResult,
                     settings: EstimatorSettings, reference_var: float,
-                    extent_sigma: tuple[float, float]) -> TargetSummary:
+                    extent_sigma: tuple[float, float],
+                    persistent_sigma: tuple[float, float] = (0.0, 0.0),
+                    spread_sigma: float = 0.0) -> TargetSummary:
     """``summary.json``'s entry of one object (``summary_types.TargetSummary``);
     reference_var: m², the variance of its reference point about the returns that the
     sensors' stated sigmas show (``fusion.reference_point``); extent_sigma: m, the hull's
-    fitted 1-sigma spread along and across the heading (``fusion.extent``)."""
+    fitted 1-sigma spread along and across the heading (``fusion.extent``);
+    persistent_sigma: m, the 1-sigma offset of the returns from the track that persists from
+    scan to scan, along and across (``fusion.persistent_offset``); spread_sigma: m, the
+    1-sigma spread of its reference point about the track that its returns' spread within a
+    scan shows, on each axis (``fusion.reference_point.spread_extent``)."""
     t_used = result.batch.t[result.used.any(axis=1)]
     p = settings.processing
     return {
         "reference_sigma_m": float(np.sqrt(reference_var)),
         "extent_sigma_m": {"along": float(extent_sigma[0]), "across": float(extent_sigma[1])},
+        "persistent_offset_sigma_m": {"along": float(persistent_sigma[0]),
+                                      "across": float(persistent_sigma[1])},
+        "return_spread_sigma_m": float(spread_sigma),
         "t_start": float(track.time[0]) if len(track.time) else None,
         "t_end": float(track.time[-1]) if len(track.time) else None,
         "n_epochs": len(track.time),
@@ -174,10 +186,13 @@ def _lever_arm(tid: str, result: FusionResult, radar: np.ndarray,
 
 def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]],
              settings: EstimatorSettings, sensor_summary: dict[str, SensorSummary],
-             n_no_platform: dict[str, int], tick: Callable[..., None] = lambda *a, **k: None
+             n_no_platform: dict[str, int], tick: Callable[..., None] = lambda *a, **k: None,
+             spreads: Mapping[str, np.ndarray] | None = None
              ) -> tuple[list[TrackEstimate], list[SensorResiduals], dict[str, TargetSummary]]:
     """Each fused object's track on the output grid and each sensor's residuals; fills the
-    sensors' summary entries (``sensor_summary``, by id) and returns the objects' entries."""
+    sensors' summary entries (``sensor_summary``, by id) and returns the objects' entries.
+    ``spreads``: object id -> its returns' spread within a scan (2, 2) m^2
+    (``tracking.return_spread``; none without)."""
     sensor_ids = tuple(s.id for s in cfg.sensors)
     stated = stated_position_sigma(cfg.sensors)
     radar = np.array([s.kind == "radar" for s in cfg.sensors])
@@ -189,11 +204,16 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     for tid, result in fused:
         stated_var = reference_variance(result.batch, result.noise, stated, radar)
         fitted = object_extent(result.batch, result.xs[result.meas_epoch], result.used, radar)
+        persistent = persistent_offset(result.batch, result.xs[result.meas_epoch],
+                                       result.used, radar)
+        spread = spread_extent((spreads or {}).get(tid)) if plots_only(result.batch, radar) \
+            else Extent()
         lever = _lever_arm(tid, result, radar, levers)
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
                                stated=stated, lever_arm=lever,
-                               reference=reference_extent(stated_var, fitted))
+                               reference=reference_extent(stated_var, fitted, persistent,
+                                                          spread))
         tracks.append(track)
         for i in np.unique(result.batch.sensor):
             i = int(i)
@@ -204,7 +224,8 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
         for i, n in result.n_unstarted.items():
             sensor_summary[sensor_ids[i]]["n_unstarted"] += n
         target_summary[tid] = _target_summary(track, result, settings, stated_var,
-                                              fitted.sigma)
+                                              fitted.sigma, persistent.sigma,
+                                              spread.sigma[0])
         tick(1, tid)
     for i, used_by in uses.items():       # totals over the objects (``fusion.sensor_use``)
         sensor_summary[sensor_ids[i]].update(sensor_use(cfg.sensors[i], used_by))
@@ -225,17 +246,19 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
            settings: EstimatorSettings, sensor_summary: dict[str, SensorSummary],
            n_no_platform: dict[str, int], suspicions: dict[str, UnitSuspicion],
            logs: Mapping[str, SensorLog], edits: EditRecord,
-           tick: Callable[..., None] = lambda *a, **k: None
+           tick: Callable[..., None] = lambda *a, **k: None,
+           spreads: Mapping[str, np.ndarray] | None = None
            ) -> tuple[list[tuple[str, FusionResult]], list[TrackEstimate],
                       list[SensorResiduals], dict[str, TargetSummary]]:
     """:func:`products` and the plausibility lines: the sensors far from the others (with an
     angle-unit suspicion: exit 2), whose lone objects are left out (``fusion.isolated``)
     unless ``keep_isolated``, then the stated sigmas far from the noise the data show.
     Returns the fused objects kept, their tracks, residuals and summary entries; fills
-    ``sensor_summary`` and adds the rows left out to ``edits``."""
+    ``sensor_summary`` and adds the rows left out to ``edits``. ``spreads`` as for
+    :func:`products`."""
     before = copy.deepcopy(sensor_summary)
     tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
-                                          n_no_platform, tick)
+                                          n_no_platform, tick, spreads)
     far = far_sensors(tracks, [s.id for s in cfg.sensors])
     left_out = {} if cfg.processing.keep_isolated else isolated_objects(cfg, far)
     report_disagreement(cfg, far, suspicions, left_out)
@@ -244,7 +267,7 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
         sensor_summary.clear()
         sensor_summary.update(before)
         tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
-                                              n_no_platform)
+                                              n_no_platform, spreads=spreads)
     plausibility(cfg, sensor_summary, logs)
     return fused, tracks, residuals, targets
 

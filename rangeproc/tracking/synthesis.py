@@ -62,6 +62,7 @@ from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.initialise import Prior
 from rangeproc.models.measurement import AZIMUTH
 from rangeproc.parallel import thread_map
+from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.angle_plots import angle_owners
 from rangeproc.tracking.biased_duplicates import join_biased_duplicates
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
@@ -76,9 +77,11 @@ from rangeproc.tracking.objects import (
 from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plot_tails import stray_tails
-from rangeproc.tracking.clutter_map import stationary_returns
-from rangeproc.tracking.plot_tracker import PlotTiming, plot_timing, track_plots
+from rangeproc.tracking.clutter_map import neighbour_share, stationary_returns
+from rangeproc.tracking.plot_tracker import (GATE_PROBABILITY, SEVERAL_RETURNS_SHARE,
+                                             PlotTiming, plot_timing, track_plots)
 from rangeproc.tracking.reassociation import reassociate_plots
+from rangeproc.tracking.return_spread import largest, object_spreads
 from rangeproc.tracking.plots import plot_positions, several_objects
 from rangeproc.tracking.relay import (
     relay_lone_objects,
@@ -122,7 +125,9 @@ class Synthesis:
     per sensor index with angle-only plots, (their rows, those associated) (step 6); per plot
     sensor index, its stationary returns (``tracking.clutter_map.stationary_returns``); the
     rounds of step 5 (``tracking.reassociation``: rounds, converged, plots moved per round)
-    and its ambiguous stretches (object ids)."""
+    and its ambiguous stretches (object ids); per object, the spread of its returns within a
+    scan of a sensor that gives several returns per object (``tracking.return_spread``,
+    (2, 2) m^2 east and north)."""
 
     members: dict[str, list[tuple[int, np.ndarray]]]
     segments: list[Segment]
@@ -136,6 +141,7 @@ class Synthesis:
     stationary: dict[int, list[dict[str, float]]] = field(default_factory=dict)
     plot_rounds: dict = field(default_factory=dict)
     ambiguous: list[dict] = field(default_factory=list)
+    return_spread: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _spherical_components(rows: SensorRows, sel: np.ndarray) -> np.ndarray:
@@ -351,6 +357,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
         row_reason[i][plots] = np.where(owner != "", ASSOCIATED,
                                         np.where(np.isin(plots, clutter.get(i, [])), CLUTTER,
                                                  NO_OBJECT))
+    spreads = _return_spreads(rows, timings, row_object)
     angle_used = {i: (int(rows.size), int(sum(bool(k) for k in keys)))
                   for i, (rows, keys) in angle_owner.items()}
     stationary = {i: cells for i, (_, _, cells) in timings.items()}
@@ -362,7 +369,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
                      angle_plots=angle_used, stationary=stationary,
                      plot_rounds={"rounds": step5.rounds, "converged": step5.converged,
                                   "moved_plots": step5.moved},
-                     ambiguous=ambiguous)
+                     ambiguous=ambiguous, return_spread=spreads)
 
 
 def _associate_angle_plots(objects: Objects, keys: list[str],
@@ -400,6 +407,32 @@ def _name_objects(objects: Objects, declared: Sequence[str], anchored: list[str]
     for n, k in enumerate(sorted(free, key=lambda k: first[k]), start=1):
         names[k] = f"O{n}"
     return names
+
+
+def _return_spreads(rows: Mapping[int, SensorRows],
+                    timings: Mapping[int, tuple[np.ndarray, PlotTiming, list]],
+                    row_object: Mapping[int, np.ndarray]) -> dict[str, np.ndarray]:
+    """Object id -> the spread of its returns within a scan (``tracking.return_spread``,
+    (2, 2) m^2), the largest over the plot sensors that give several returns per object a
+    scan (``tracking.clutter_map.neighbour_share``, as the tracker decides it); ``timings``
+    as for ``tracking.reassociation.reassociate_plots``, ``row_object`` the final owners."""
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
+    out: dict[str, np.ndarray] = {}
+    for i, (ranged, timing, _) in timings.items():
+        r = rows[i]
+        z = r.z[ranged]
+        p, R = plot_positions(z[:, 0], z[:, 1], z[:, 2], r.sigma[ranged][:, :3], r.s[ranged],
+                              r.Qr[ranged])
+        usable = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
+        planar = bool(np.median(r.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
+        p, R, frame = p[usable], R[usable], timing.frame[usable]
+        owner = row_object[i][ranged][usable]
+        if not (owner != "").any() or neighbour_share(p, R, frame, gate, planar) \
+                < SEVERAL_RETURNS_SHARE:
+            continue
+        for name, S in object_spreads(p, R, frame, owner, gate).items():
+            out[name] = largest(out.get(name), S)
+    return out
 
 
 def _row_tables(rows: Mapping[int, SensorRows], kinds: Sequence[str], segments: list[Segment],

@@ -52,8 +52,10 @@ def _inside(out: Path, truth: Path, spread: bool = True) -> tuple[np.ndarray, np
         if not spread:
             entry = targets[match]
             v = entry["reference_sigma_m"] ** 2
-            ext = entry["extent_sigma_m"]
-            ref = Extent(along=max(v, ext["along"] ** 2), across=max(v, ext["across"] ** 2))
+            ext, per = entry["extent_sigma_m"], entry["persistent_offset_sigma_m"]
+            spr = entry["return_spread_sigma_m"] ** 2
+            ref = Extent(along=max(v, ext["along"] ** 2, per["along"] ** 2, spr),
+                         across=max(v, ext["across"] ** 2, per["across"] ** 2, spr))
             C = extent_covariance(ref, np.c_[f.ve, f.vn])
             var = var - np.c_[C[:, 0, 0], C[:, 1, 1]]
         ok = np.abs(err) <= 3 * np.sqrt(np.maximum(var, 0.0))

@@ -39,10 +39,20 @@ def test_the_stated_spread_the_track_absorbs_is_the_reference_points():
     noise = {(0, 0): 0.5, (0, 1): 1.0 * DEG}
     want = 0.5 * ((2.0**2 - 0.5**2) + 100.0**2 * ((2 * DEG) ** 2 - DEG**2))
     assert reference_variance(_plots(0), noise, STATED, RADAR) == pytest.approx(want)
-    # the largest of two radars' estimates; a radar whose noise exceeds its stated sigma says
-    # nothing of it (0), and a camera is no radar of plots
-    noise.update({(1, 0): 6.0, (1, 1): 2 * DEG})
+    # the largest of two radars' estimates; a radar whose noise exceeds its stated sigma by
+    # less than its rows' sampling error says nothing of it (0), and a camera is no radar
+    noise.update({(1, 0): 6.0, (1, 1): 1.2 * DEG})       # ratios 1.44, 1.44 < 1 + 3 sqrt(0.2)
     assert reference_variance(_plots(0, 1, 2), noise, STATED, RADAR) == pytest.approx(want)
+    assert reference_variance(_plots(1), noise, STATED, RADAR) == 0.0
+
+
+def test_a_spread_beyond_the_stated_sigma_is_the_reference_points_too():
+    # a radar whose rows spread about the track far more than stated (a ship's returns along
+    # its hull, 3 times the stated azimuth sigma): the excess counts, where it is significant
+    noise = {(1, 0): 5.0, (1, 1): 3.0 * DEG}
+    want = 0.5 * 100.0**2 * ((3 * DEG) ** 2 - DEG**2)
+    assert reference_variance(_plots(1), noise, STATED, RADAR) == pytest.approx(want)
+    noise = {(1, 0): 5.0, (1, 1): 1.5 * DEG}              # ratio 2.25 < 2.34 with 10 rows
     assert reference_variance(_plots(1), noise, STATED, RADAR) == 0.0
 
 
