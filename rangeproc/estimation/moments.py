@@ -25,6 +25,9 @@ from rangeproc.models.measurement import (
 #: Measurement update methods (``estimation.forward.FilterSettings.method``).
 EKF = 0
 UKF = 1
+#: The measurement components (range, azimuth, elevation; or a Cartesian position) and the
+#: state columns (position) they depend on: the first three of each.
+N_POSITION = 3
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -226,6 +229,11 @@ def specialise_ukf(n_fixed: int, inline: str) -> Callable:
         are unwrapped around the central point's before averaging. Fills ``y``, ``C`` (cross-
         covariance transposed, (m, n)) and ``Z`` (predicted measurement covariance) like
         :func:`ekf_moments`. Returns False when ``(n + lambda) P`` is not positive definite.
+
+        The points of the columns of the lower Cholesky factor beyond :data:`N_POSITION` move
+        no position (the factor is zero above its diagonal), so on a row that measures only
+        position components (range, angles, a Cartesian position) their ``h`` is the
+        centre's, bit for bit: copied, not recomputed (12 of the 19 points at nine states).
         """
         n = N_FIXED if N_FIXED > 0 else x.shape[0]
         alpha, beta, kappa = ukf[0], ukf[1], ukf[2]
@@ -239,11 +247,18 @@ def specialise_ukf(n_fixed: int, inline: str) -> Callable:
         wm0 = lam / c
         wc0 = wm0 + 1.0 - alpha * alpha + beta
         wi = 0.5 / c
+        position_only = True                                 # the row measures position only
+        for a in range(m):
+            position_only = position_only and idx[a] < N_POSITION
         for j in range(2 * n + 1):                           # h at each sigma point
+            col = (j - 1) % n
+            if j > 0 and position_only and col >= N_POSITION:
+                for cc in range(N_COMPONENTS):               # L's column moves no position:
+                    Zs[j, cc] = Zs[0, cc]                    # the centre's h, bit for bit
+                continue
             for i in range(n):
                 xs[i] = x[i]
             if j > 0:
-                col = (j - 1) % n
                 sign = 1.0 if j <= n else -1.0
                 for i in range(n):
                     xs[i] += sign * L[i, col]
