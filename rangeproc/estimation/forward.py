@@ -219,5 +219,5 @@ def run_filter(rows: FilterRows, prior: FilterPrior,
         par = _f64(settings.spline, 1)
     else:
         par = np.empty(0)
-    out = forward_kernel(REGISTRY[family])(*common, x_lin, method, ukf, par)
+    out = forward_kernel(REGISTRY[family], n)(*common, x_lin, method, ukf, par)
     return FilterOutput(*out)

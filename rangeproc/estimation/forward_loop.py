@@ -53,9 +53,9 @@ from rangeproc.estimation.fading import (
     epoch_innovations,
     fading_factors,
 )
-from rangeproc.estimation.kernels import N_OBSERVED, predict_epoch
-from rangeproc.estimation.linalg import pack
-from rangeproc.estimation.moments import EKF, UKF, row_moments
+from rangeproc.estimation.kernels import N_OBSERVED, predict_epoch, specialise_predict
+from rangeproc.estimation.linalg import pack_n
+from rangeproc.estimation.moments import EKF, UKF, row_moments, specialise_ukf
 from rangeproc.estimation.spline_filter import (
     SPL_JERK_SPAN,
     SPL_MAX_RATIO,
@@ -94,19 +94,33 @@ def n_series(sensor: np.ndarray) -> int:
     return top + 1
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def store_epoch(x: np.ndarray, P: np.ndarray, xf: np.ndarray, Pf: np.ndarray, k: int) -> None:
-    """Store the state after epoch ``k``'s rows (covariance packed); a non-finite state is a
-    numerical failure (FloatingPointError)."""
-    for a in range(x.shape[0]):
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def store_epoch(x: np.ndarray, P: np.ndarray, xf: np.ndarray, Pf: np.ndarray, k: int,
+                n: int) -> None:
+    """Store the ``n``-state ``x``, ``P`` after epoch ``k``'s rows (covariance packed, as
+    ``linalg.pack``); a non-finite state is a numerical failure (FloatingPointError)."""
+    for a in range(n):
         if not math.isfinite(x[a]):
             raise FloatingPointError("non-finite state in the Kalman filter")
         xf[k, a] = x[a]
-    pack(P, Pf[k])
+    pack_n(P, Pf[k], n)
 
 
-def _specialise(family: Family) -> Callable:
-    """The loop compiled with ``family``'s steps as constants (module docstring)."""
+#: The divergence guard and the row's record, inlined into the loop (a call with array
+#: arguments costs their reference counting on every row).
+_guard_row = njit(nogil=True, error_model="numpy", inline="always")(guard_row.py_func)
+_record_row = njit(nogil=True, error_model="numpy", inline="always")(record_row.py_func)
+
+
+#: The prediction and the unscented moments at the pipeline's state size, inlined (module
+#: globals: a compiled helper held in a closure cell would keep the loop out of the cache).
+_predict_fixed = specialise_predict(N_KINEMATIC, "always")[4]
+_ukf_fixed = specialise_ukf(N_KINEMATIC, "always")
+
+
+def _specialise(family: Family, n_state: int) -> Callable:
+    """The loop compiled with ``family``'s steps and the state size ``n_state`` as constants
+    (module docstring)."""
     JERK = "jerk-input" in family.adds
     FADING = "fading" in family.adds
     ANOMALY = "anomaly" in family.adds
@@ -117,12 +131,15 @@ def _specialise(family: Family) -> Callable:
     # the plain families fix their update (the others take it as an argument)
     METHOD = -1 if (JERK or FADING or ANOMALY or ADAPTIVE) else (
         UKF if family.update == "ukf" else EKF)
-    FAST = METHOD == EKF                     # the fused fast path for the common rows
+    FAST = METHOD == EKF and n_state == fu.N  # the fused fast path for the common rows
+    UFAST = METHOD == UKF and n_state == fu.N  # the unscented update at the fixed size
+    FIXED = n_state == N_KINEMATIC           # the fixed-size prediction
+    N_STATE = n_state
 
     @njit(cache=True, nogil=True, error_model="numpy")
     def forward(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
                 reset_after, reset_inflation, x_lin, method, ukf, par):
-        E, N, n = epoch_t.shape[0], meas_epoch.shape[0], x0.shape[0]
+        E, N, n = epoch_t.shape[0], meas_epoch.shape[0], N_STATE
         meth = METHOD if METHOD >= 0 else method
         joseph = meth == EKF
         use_lin = x_lin.shape[0] == E and meth == EKF
@@ -137,7 +154,6 @@ def _specialise(family: Family) -> Callable:
         (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
          xsig) = row_workspace(n)
         sig_row = np.empty(N_COMPONENTS)
-        fast = FAST and n == fu.N
         (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt,
          f_AP, f_APHt) = fu.fast_workspace()
         # --- the steps' own state, sized to nothing where the family does not add them
@@ -181,7 +197,10 @@ def _specialise(family: Family) -> Callable:
         i = 0
         for k in range(E):
             # --- predict (eq. 6-7), with the spline filter's jerk input (Zhou et al. eqs. 5/6)
-            dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
+            if FIXED:
+                dt = _predict_fixed(x, P, AP, epoch_t, q_steps, k)
+            else:
+                dt = predict_epoch(x, P, AP, epoch_t, q_steps, k)
             if JERK and k > 0:
                 add_jerk(x, jerk, dt)
                 for a in range(3):
@@ -219,7 +238,7 @@ def _specialise(family: Family) -> Callable:
             while i < N and meas_epoch[i] == k:
                 if FAST:
                     m = fu.ekf_moments(model[i], z, sigma, s, Qr, i, x, x_lin, k, use_lin, P,
-                                       f_idx, f_sig_row, f_y, f_C, f_Z, f_Hs) if fast else -1
+                                       f_idx, f_sig_row, f_y, f_C, f_Z, f_Hs)
                     if m >= 0:                           # the fast path took the row
                         dof[i] = m
                         if m > 0:
@@ -227,18 +246,23 @@ def _specialise(family: Family) -> Callable:
                                 f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate, True,
                                 False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
                                 f_sdiag, ew, Sinv)
-                            loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected,
+                            loglik = _record_row(i, val, mask, ll_row, loglik, nis, rejected,
                                                 ll_rows)
-                            guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,
+                            _guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,
                                       resets, reset_after, reset_inflation, P)
                         i += 1
                         continue
                 m = measured_components(z[i], sigma[i], idx, sig_row)
                 dof[i] = m
                 if m > 0:
-                    row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,
-                                x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L, Zs,
-                                xsig, h, H, y6, y, C, Z, Hs, sig_row)
+                    if UFAST:                            # all rows, inlined, n fixed
+                        if not _ukf_fixed(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m,
+                                          ukf, L, Zs, xsig, h, H, y6, y, C, Z):
+                            raise FloatingPointError("covariance not positive definite in UKF")
+                    else:
+                        row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,
+                                    x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L,
+                                    Zs, xsig, h, H, y6, y, C, Z, Hs, sig_row)
                     if ADAPTIVE:                         # Sage-Husa: windowed noise
                         for a in range(m):
                             y_raw[a] = y[a]
@@ -253,10 +277,15 @@ def _specialise(family: Family) -> Callable:
                                 rms = math.sqrt(rss[g] / (rss_n[g] - 1))
                                 sig_row[a] = min(max(sig_row[a], rms),
                                                  SPL_MAX_RATIO * sig_row[a])
-                    val, ok, n_acc, mask, ll_row = update_row(
-                        y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, ROW_NOISE, sel, sig,
-                        yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
-                    loglik = record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
+                    if UFAST:                            # the fast path's update, P - K HP
+                        val, ok, n_acc, mask, ll_row = fu.update(
+                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, False, False, sel, sig,
+                            yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                    else:
+                        val, ok, n_acc, mask, ll_row = update_row(
+                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, ROW_NOISE, sel,
+                            sig, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                    loglik = _record_row(i, val, mask, ll_row, loglik, nis, rejected, ll_rows)
                     if ADAPTIVE and ok:                  # Sage-Husa window, accepted only
                         for b in range(n_acc):
                             a = sel[b]
@@ -270,7 +299,7 @@ def _specialise(family: Family) -> Callable:
                             r = ew[b] * sig[b]           # post-update residual z - h(x_k)
                             rss[g] += r * r
                             rss_n[g] += 1
-                    if guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets,
+                    if _guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive, resets,
                                  reset_after, reset_inflation, P) and ADAPTIVE:
                         sh_reset(sh_count, sh_pos, sh_acc)  # divergence: a-priori noise
                 i += 1
@@ -289,20 +318,21 @@ def _specialise(family: Family) -> Callable:
                     segment_jerk(x, a_knot, epoch_t[k] - t_knot, jerk)
                     seg_open = False
                 n_meas_ep += 1
-            store_epoch(x, P, xf, Pf, k)
+            store_epoch(x, P, xf, Pf, k, N_STATE)
         return (xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows, sigma_used, fade,
                 jerk_out, anomaly, knot)
 
     return forward
 
 
-_KERNELS: dict[str, Callable] = {}
+_KERNELS: dict[tuple[str, int], Callable] = {}
 
 
-def forward_kernel(family: Family) -> Callable:
-    """The compiled loop of ``family`` (made on first use; compiled, or loaded from the cache,
-    at its first call)."""
-    kernel = _KERNELS.get(family.name)
+def forward_kernel(family: Family, n_state: int = N_KINEMATIC) -> Callable:
+    """The compiled loop of ``family`` at the state size ``n_state`` (made on first use;
+    compiled, or loaded from the cache, at its first call)."""
+    key = (family.name, n_state)
+    kernel = _KERNELS.get(key)
     if kernel is None:
-        kernel = _KERNELS[family.name] = _specialise(family)
+        kernel = _KERNELS[key] = _specialise(family, n_state)
     return kernel

@@ -4,8 +4,7 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
 ``[p, v, a]`` (range ENU) and mixes them every epoch through a Markov chain of model switches:
 
 1. mixing: ``c_j = sum_i pi_ij mu_i``, ``mu_i|j = pi_ij mu_i / c_j``, each model starts from
-   the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means;
-   ``estimation.imm_models.mix``, the one IMM interaction, also the plot tracker's);
+   the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
 2. model-conditioned prediction with the model's own transition and process noise;
 3. the epoch's rows update every model by the same compiled update as the single filter
    (``moments.row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
@@ -40,6 +39,7 @@ marginals (``estimation.imm_smoother``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -52,19 +52,26 @@ from rangeproc.estimation.divergence import (
 )
 from rangeproc.estimation.update import row_workspace, update_row
 from rangeproc.estimation.moments import EKF, row_moments
-from rangeproc.estimation.kernels import predict_cov, predict_state
-from rangeproc.estimation.linalg import pack
+from rangeproc.estimation import fast_update as fu
+from rangeproc.estimation.kernels import predict_epoch, specialise_predict
+from rangeproc.estimation.linalg import pack_n
 from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.estimation.imm_models import (
     CA,
     CT,
     combine,
     dense_predict,
-    mix,
     model_matrices,
     switch_matrix,
     turn_rate,
 )
+
+#: The per-epoch helpers, inlined into the loop (a call with array arguments costs their
+#: reference counting, several times per model and epoch).
+_combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
+_dense_predict = njit(nogil=True, error_model="numpy", inline="always")(dense_predict.py_func)
+_model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
+    model_matrices.py_func)
 
 class IMMOutput(NamedTuple):
     """:func:`imm_forward`'s results by name (``IMMOutput._make(imm_forward(...))``; the
@@ -83,7 +90,187 @@ class IMMOutput(NamedTuple):
     n_resets: int
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+#: The CA prediction at the fast path's state size, inlined (a module global: a compiled
+#: helper held in a closure cell would keep the loop out of the cache).
+_predict_fixed = specialise_predict(fu.N, "always")[4]
+
+
+def _specialise(n_state: int) -> Callable:
+    """:func:`imm_forward`'s loop compiled with the state size ``n_state`` a compile-time
+    constant: at the CA model's nine states, the common rows update every model through the
+    forward filters' fused fast path (``estimation.fast_update``; the general update for the
+    other rows) and the CA prediction is the fixed-size kernel, inlined."""
+    N_STATE = n_state
+    FAST = n_state == fu.N
+
+    @njit(cache=True, nogil=True, error_model="numpy")
+    def kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
+               reset_after, reset_inflation, x_lin, codes, Lam, mu0):
+        E = epoch_t.shape[0]
+        N = meas_epoch.shape[0]
+        n = N_STATE
+        r = codes.shape[0]
+        npk = n * (n + 1) // 2
+        xf = np.empty((E, n))
+        Pf = np.empty((E, npk))
+        xm = np.empty((E, r, n))
+        Pm = np.empty((E, r, npk))
+        mu_out = np.empty((E, r))
+        omega = np.zeros((E, r))
+        nis = np.full(N, np.nan)
+        dof = np.zeros(N, dtype=np.int64)
+        rejected = np.zeros(N, dtype=np.int64)
+        X = np.empty((r, n))
+        PP = np.empty((r, n, n))
+        for j in range(r):
+            X[j] = x0
+            PP[j] = P0
+        mu = mu0.copy()
+        Pi = np.empty((r, r))
+        swork = np.empty((2, r, r))
+        last_dt = -1.0
+        cbar = np.empty(r)
+        X0 = np.empty((r, n))
+        P0m = np.empty((r, n, n))
+        ll = np.empty(r)
+        F = np.empty((n, n))
+        Qm = np.empty((n, n))
+        xt = np.empty(n)
+        T = np.empty((n, n))
+        dx = np.empty(n)
+        (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
+         xsig) = row_workspace(n)
+        sig_row = np.empty(N_COMPONENTS)
+        (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt,
+         f_AP, f_APHt) = fu.fast_workspace()
+        wmix = np.empty(r)
+        ukf = np.zeros(3)
+        use_lin = x_lin.shape[0] == E
+        consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
+        n_resets = 0
+        last_reset = -1
+        loglik = 0.0
+        i = 0
+        for k in range(E):
+            dt = epoch_t[k] - epoch_t[k - 1] if k > 0 else 0.0
+            if k > 0:
+                if dt != last_dt:                               # regular steps: computed once
+                    switch_matrix(Lam, dt, Pi, swork)
+                    last_dt = dt
+                for j in range(r):                              # 1. mixing
+                    acc = 0.0
+                    for a in range(r):
+                        acc += Pi[a, j] * mu[a]
+                    cbar[j] = max(acc, 1e-300)
+                for j in range(r):
+                    for a in range(r):
+                        wmix[a] = Pi[a, j] * mu[a] / cbar[j]
+                    _combine(X, PP, wmix, X0[j], P0m[j], dx)
+                for j in range(r):                              # 2. model-conditioned prediction
+                    X[j] = X0[j]
+                    PP[j] = P0m[j]
+                    w = turn_rate(X[j]) if codes[j] == CT else 0.0
+                    omega[k, j] = w
+                    if codes[j] == CA:                          # the single filter's arithmetic
+                        if FAST:
+                            _predict_fixed(X[j], PP[j], T, epoch_t, q_steps, k)
+                        else:
+                            predict_epoch(X[j], PP[j], T, epoch_t, q_steps, k)
+                    else:
+                        _model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
+                        _dense_predict(F, Qm, X[j], PP[j], xt, T)
+            else:
+                for j in range(r):
+                    cbar[j] = mu[j]
+            best = 0
+            for j in range(r):
+                ll[j] = 0.0
+                if cbar[j] > cbar[best]:
+                    best = j
+            while i < N and meas_epoch[i] == k:                 # 3. the epoch's rows, per model
+                m = 0
+                for c in range(N_COMPONENTS):
+                    if not math.isnan(z[i, c]) and sigma[i, c] > 0.0:
+                        idx[m] = c
+                        m += 1
+                dof[i] = m
+                if m == 0:
+                    i += 1
+                    continue
+                for j in range(r):
+                    mf = fu.ekf_moments(model[i], z, sigma, s, Qr, i, X[j], x_lin, k, use_lin,
+                                        PP[j], f_idx, f_sig_row, f_y, f_C, f_Z,
+                                        f_Hs) if FAST else -1
+                    if mf > 0:                                  # the fast path took the row
+                        val, ok, _, mask, ll_row = fu.update(
+                            f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, mf, X[j], PP[j], gate, True,
+                            False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt, f_sdiag, ew,
+                            Sinv)
+                    else:
+                        for a in range(m):
+                            sig_row[a] = sigma[i, idx[a]]
+                        row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
+                                    x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L,
+                                    Zs, xsig, h, H, y6, y, C, Z, Hs, sig_row)
+                        val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
+                                                              PP[j], gate, True, False, sel, sig,
+                                                              yw, HP, S, Kt, AP, APHt, sdiag, ew,
+                                                              Sinv)
+                    ll[j] += ll_row
+                    if j == best:
+                        nis[i] = val
+                        rejected[i] = mask
+                all_rejected = True                             # divergence guard, as the filter
+                any_rejected = False
+                for a in range(m):
+                    if (rejected[i] >> idx[a]) & 1 == 0:
+                        all_rejected = False
+                    else:
+                        any_rejected = True
+                if not (all_rejected or any_rejected
+                        and nis[i] > PARTIAL_DIVERGENCE * gate[m]):
+                    consecutive[sensor[i]] = 0
+                else:
+                    consecutive[sensor[i]] += 1
+                    if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
+                            and last_reset != k:
+                        base = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
+                                   MAX_RESET_INFLATION)
+                        for j in range(r):
+                            reset_covariance(PP[j], base)
+                        consecutive[:] = 0
+                        n_resets += 1
+                        last_reset = k
+                i += 1
+            top = -np.inf                                       # 4. model probabilities
+            for j in range(r):
+                ll[j] += math.log(cbar[j])
+                top = max(top, ll[j])
+            tot = 0.0
+            for j in range(r):
+                mu[j] = math.exp(ll[j] - top)
+                tot += mu[j]
+            for j in range(r):
+                mu[j] /= tot
+            loglik += top + math.log(tot)
+            _combine(X, PP, mu, xt, T, dx)                      # combination
+            for b in range(n):
+                if not math.isfinite(xt[b]):
+                    raise FloatingPointError("non-finite state in the IMM filter")
+            xf[k] = xt
+            pack_n(T, Pf[k], N_STATE)
+            mu_out[k] = mu
+            for j in range(r):
+                xm[k, j] = X[j]
+                pack_n(PP[j], Pm[k, j], N_STATE)
+        return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
+
+    return kernel
+
+
+_KERNELS: dict[int, Callable] = {}
+
+
 def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
                 Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
@@ -104,139 +291,9 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
         epoch; nis (N,), dof (N,), rejected (N,) bit masks (under the model most probable
         before the epoch's update), loglik, n_resets.
     """
-    E = epoch_t.shape[0]
-    N = meas_epoch.shape[0]
     n = x0.shape[0]
-    r = codes.shape[0]
-    npk = n * (n + 1) // 2
-    xf = np.empty((E, n))
-    Pf = np.empty((E, npk))
-    xm = np.empty((E, r, n))
-    Pm = np.empty((E, r, npk))
-    mu_out = np.empty((E, r))
-    omega = np.zeros((E, r))
-    nis = np.full(N, np.nan)
-    dof = np.zeros(N, dtype=np.int64)
-    rejected = np.zeros(N, dtype=np.int64)
-    X = np.empty((r, n))
-    PP = np.empty((r, n, n))
-    for j in range(r):
-        X[j] = x0
-        PP[j] = P0
-    mu = mu0.copy()
-    Pi = np.empty((r, r))
-    swork = np.empty((2, r, r))
-    last_dt = -1.0
-    cbar = np.empty(r)
-    X0 = np.empty((r, n))
-    P0m = np.empty((r, n, n))
-    ll = np.empty(r)
-    F = np.empty((n, n))
-    Qm = np.empty((n, n))
-    xt = np.empty(n)
-    T = np.empty((n, n))
-    dx = np.empty(n)
-    (h, H, y6, y, idx, sel, sig, C, Z, Hs, yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv, L, Zs,
-     xsig) = row_workspace(n)
-    sig_row = np.empty(N_COMPONENTS)
-    wmix = np.empty(r)
-    ukf = np.zeros(3)
-    use_lin = x_lin.shape[0] == E
-    consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
-    n_resets = 0
-    last_reset = -1
-    loglik = 0.0
-    i = 0
-    for k in range(E):
-        dt = epoch_t[k] - epoch_t[k - 1] if k > 0 else 0.0
-        if k > 0:
-            if dt != last_dt:                               # regular steps: computed once
-                switch_matrix(Lam, dt, Pi, swork)
-                last_dt = dt
-            mix(Pi, mu, X, PP, cbar, wmix, X0, P0m, dx)     # 1. mixing
-            for j in range(r):                              # 2. model-conditioned prediction
-                X[j] = X0[j]
-                PP[j] = P0m[j]
-                w = turn_rate(X[j]) if codes[j] == CT else 0.0
-                omega[k, j] = w
-                if codes[j] == CA:                          # the single filter's arithmetic
-                    predict_state(X[j], dt)
-                    predict_cov(PP[j], T, dt, q_steps[k])
-                else:
-                    model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
-                    dense_predict(F, Qm, X[j], PP[j], xt, T)
-        else:
-            for j in range(r):
-                cbar[j] = mu[j]
-        best = 0
-        for j in range(r):
-            ll[j] = 0.0
-            if cbar[j] > cbar[best]:
-                best = j
-        while i < N and meas_epoch[i] == k:                 # 3. the epoch's rows, per model
-            m = 0
-            for c in range(N_COMPONENTS):
-                if not math.isnan(z[i, c]) and sigma[i, c] > 0.0:
-                    idx[m] = c
-                    m += 1
-            dof[i] = m
-            if m == 0:
-                i += 1
-                continue
-            for j in range(r):
-                for a in range(m):
-                    sig_row[a] = sigma[i, idx[a]]
-                row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
-                            x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L, Zs,
-                            xsig, h, H, y6, y, C, Z, Hs, sig_row)
-                val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
-                                                      PP[j], gate, True, False, sel, sig, yw,
-                                                      HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
-                ll[j] += ll_row
-                if j == best:
-                    nis[i] = val
-                    rejected[i] = mask
-            all_rejected = True                             # divergence guard, as the filter
-            any_rejected = False
-            for a in range(m):
-                if (rejected[i] >> idx[a]) & 1 == 0:
-                    all_rejected = False
-                else:
-                    any_rejected = True
-            if not (all_rejected or any_rejected
-                    and nis[i] > PARTIAL_DIVERGENCE * gate[m]):
-                consecutive[sensor[i]] = 0
-            else:
-                consecutive[sensor[i]] += 1
-                if reset_after > 0 and consecutive[sensor[i]] >= reset_after \
-                        and last_reset != k:
-                    base = min(max(reset_inflation, 4.0 * nis[i] / gate[m]),
-                               MAX_RESET_INFLATION)
-                    for j in range(r):
-                        reset_covariance(PP[j], base)
-                    consecutive[:] = 0
-                    n_resets += 1
-                    last_reset = k
-            i += 1
-        top = -np.inf                                       # 4. model probabilities
-        for j in range(r):
-            ll[j] += math.log(cbar[j])
-            top = max(top, ll[j])
-        tot = 0.0
-        for j in range(r):
-            mu[j] = math.exp(ll[j] - top)
-            tot += mu[j]
-        for j in range(r):
-            mu[j] /= tot
-        loglik += top + math.log(tot)
-        combine(X, PP, mu, xt, T, dx)                      # combination
-        for b in range(n):
-            if not math.isfinite(xt[b]):
-                raise FloatingPointError("non-finite state in the IMM filter")
-        xf[k] = xt
-        pack(T, Pf[k])
-        mu_out[k] = mu
-        for j in range(r):
-            xm[k, j] = X[j]
-            pack(PP[j], Pm[k, j])
-    return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
+    kernel = _KERNELS.get(n)
+    if kernel is None:
+        kernel = _KERNELS[n] = _specialise(n)
+    return kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps,
+                  gate, reset_after, reset_inflation, x_lin, codes, Lam, mu0)

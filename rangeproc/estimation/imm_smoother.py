@@ -6,19 +6,139 @@ smoothed model probabilities are those weights' marginals.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.imm_models import (
-    combine,
-    model_matrices,
-    predicted_probabilities,
-    switch_matrix,
-)
-from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+from rangeproc.estimation.imm_models import combine, model_matrices, switch_matrix
+from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack_n, unpack
+
+_cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
+_chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
+_combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
+_model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
+    model_matrices.py_func)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+def _specialise(n_state: int) -> Callable:
+    """:func:`imm_smooth`'s loop compiled with the state size ``n_state`` a compile-time
+    constant and the pair step inlined."""
+    N_STATE = n_state
+
+    @njit(cache=True, nogil=True, error_model="numpy")
+    def kernel(epoch_t, xm, Pm, mu, omega, q_steps, codes, Lam, prune):
+        E, r = xm.shape[0], xm.shape[1]
+        n = N_STATE
+        npk = n * (n + 1) // 2
+        xs = np.empty((E, n))
+        Ps = np.empty((E, npk))
+        mus = np.empty((E, r))
+        Xn = np.empty((r, n))                                   # smoothed per model at k+1
+        Pn = np.empty((r, n, n))
+        Xk = np.zeros((r, n))                 # zeros: a pruned model's rows are never set
+        Pk = np.zeros((r, n, n))
+        wc = np.empty(r)                                        # combination weights
+        Xp = np.empty((r, r, n))                                # pair means at k
+        Pp = np.empty((r, r, n, n))
+        W = np.empty((r, r))
+        Pi = np.empty((r, r))
+        swork = np.empty((2, r, r))
+        last_dt = -1.0
+        cbar = np.empty(r)
+        F = np.empty((n, n))
+        Qm = np.empty((n, n))
+        Pf = np.empty((n, n))
+        Ppred = np.empty((n, n))
+        xpred = np.empty(n)
+        FP = np.empty((n, n))
+        Ct = np.empty((n, n))
+        D = np.empty((n, n))
+        dx = np.empty(n)
+        T = np.empty((n, n))
+        for i in range(r):
+            Xn[i] = xm[E - 1, i]
+            unpack(Pm[E - 1, i], Pn[i])
+        for i in range(r):
+            mus[E - 1, i] = mu[E - 1, i]
+        _combine(Xn, Pn, mus[E - 1], xs[E - 1], T, dx)
+        pack_n(T, Ps[E - 1], N_STATE)
+        for k in range(E - 2, -1, -1):
+            dt = epoch_t[k + 1] - epoch_t[k]
+            if dt != last_dt:                                   # regular steps: computed once
+                switch_matrix(Lam, dt, Pi, swork)
+                last_dt = dt
+            for i in range(r):
+                acc = 0.0
+                for j in range(r):
+                    acc += Pi[j, i] * mu[k, j]
+                cbar[i] = max(acc, 1e-300)
+            total = 0.0
+            for j in range(r):
+                row = 0.0
+                for i in range(r):
+                    W[j, i] = mu[k, j] * Pi[j, i] * mus[k + 1, i] / cbar[i]
+                    row += W[j, i]
+                mus[k, j] = row
+                total += row
+            for j in range(r):
+                mus[k, j] /= total
+                for i in range(r):                              # negligible pairs and models
+                    if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
+                        W[j, i] = 0.0
+            for j in range(r):
+                unpack(Pm[k, j], Pf)
+                for i in range(r):
+                    if W[j, i] == 0.0:
+                        continue
+                    _model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
+                    _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
+                               dx, Xp[j, i], Pp[j, i], N_STATE)
+            wsum = 0.0
+            for j in range(r):
+                tot = 0.0
+                for i in range(r):
+                    tot += W[j, i]
+                wc[j] = mus[k, j] if tot > 0.0 else 0.0
+                wsum += wc[j]
+                if tot <= 0.0:                                  # skipped: filled in below
+                    continue
+                for a in range(n):
+                    acc = 0.0
+                    for i in range(r):
+                        acc += W[j, i] / tot * Xp[j, i, a]
+                    Xk[j, a] = acc
+                for a in range(n):
+                    for b in range(n):
+                        Pk[j, a, b] = 0.0
+                for i in range(r):
+                    if W[j, i] == 0.0:
+                        continue
+                    w = W[j, i] / tot
+                    for a in range(n):
+                        dx[a] = Xp[j, i, a] - Xk[j, a]
+                    for a in range(n):
+                        for b in range(n):
+                            Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
+            for j in range(r):
+                wc[j] /= wsum
+            _combine(Xk, Pk, wc, xs[k], T, dx)
+            pack_n(T, Ps[k], N_STATE)
+            for j in range(r):
+                if wc[j] > 0.0:
+                    Xn[j] = Xk[j]
+                    Pn[j] = Pk[j]
+                else:          # a skipped model carries the combined smoothed estimate back: its
+                    Xn[j] = xs[k]                # chain must not restart from its filter where
+                    Pn[j] = T                    # it matters again earlier in the flight
+        return xs, Ps, mus
+
+    return kernel
+
+
+_KERNELS: dict[int, Callable] = {}
+
+
 def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarray,
                omega: np.ndarray, q_steps: np.ndarray, codes: np.ndarray, Lam: np.ndarray,
                prune: float):
@@ -37,99 +157,18 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
         xs (E, n), Ps (E, n(n+1)/2) the combined smoothed states and packed covariances, and
         mus (E, r) the smoothed model probabilities.
     """
-    E, r, n = xm.shape
-    npk = n * (n + 1) // 2
-    xs = np.empty((E, n))
-    Ps = np.empty((E, npk))
-    mus = np.empty((E, r))
-    Xn = np.empty((r, n))                                   # smoothed per model at k+1
-    Pn = np.empty((r, n, n))
-    Xk = np.zeros((r, n))                 # zeros: a pruned model's rows are never set
-    Pk = np.zeros((r, n, n))
-    wc = np.empty(r)                                        # combination weights
-    wpair = np.empty(r)                                     # model j's pair weights
-    Xp = np.empty((r, r, n))                                # pair means at k
-    Pp = np.empty((r, r, n, n))
-    W = np.empty((r, r))
-    Pi = np.empty((r, r))
-    swork = np.empty((2, r, r))
-    last_dt = -1.0
-    cbar = np.empty(r)
-    F = np.empty((n, n))
-    Qm = np.empty((n, n))
-    Pf = np.empty((n, n))
-    Ppred = np.empty((n, n))
-    xpred = np.empty(n)
-    FP = np.empty((n, n))
-    Ct = np.empty((n, n))
-    D = np.empty((n, n))
-    dx = np.empty(n)
-    T = np.empty((n, n))
-    for i in range(r):
-        Xn[i] = xm[E - 1, i]
-        unpack(Pm[E - 1, i], Pn[i])
-    for i in range(r):
-        mus[E - 1, i] = mu[E - 1, i]
-    combine(Xn, Pn, mus[E - 1], xs[E - 1], T, dx)
-    pack(T, Ps[E - 1])
-    for k in range(E - 2, -1, -1):
-        dt = epoch_t[k + 1] - epoch_t[k]
-        if dt != last_dt:                                   # regular steps: computed once
-            switch_matrix(Lam, dt, Pi, swork)
-            last_dt = dt
-        predicted_probabilities(Pi, mu[k], cbar)
-        total = 0.0
-        for j in range(r):
-            row = 0.0
-            for i in range(r):
-                W[j, i] = mu[k, j] * Pi[j, i] * mus[k + 1, i] / cbar[i]
-                row += W[j, i]
-            mus[k, j] = row
-            total += row
-        for j in range(r):
-            mus[k, j] /= total
-            for i in range(r):                              # negligible pairs and models
-                if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
-                    W[j, i] = 0.0
-        for j in range(r):
-            unpack(Pm[k, j], Pf)
-            for i in range(r):
-                if W[j, i] == 0.0:
-                    continue
-                model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
-                _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
-                           dx, Xp[j, i], Pp[j, i])
-        wsum = 0.0
-        for j in range(r):
-            tot = 0.0
-            for i in range(r):
-                tot += W[j, i]
-            wc[j] = mus[k, j] if tot > 0.0 else 0.0
-            wsum += wc[j]
-            if tot <= 0.0:                                  # skipped: filled in below
-                continue
-            for i in range(r):
-                wpair[i] = W[j, i] / tot
-            combine(Xp[j], Pp[j], wpair, Xk[j], Pk[j], dx)  # model j's smoothed mixture
-        for j in range(r):
-            wc[j] /= wsum
-        combine(Xk, Pk, wc, xs[k], T, dx)
-        pack(T, Ps[k])
-        for j in range(r):
-            if wc[j] > 0.0:
-                Xn[j] = Xk[j]
-                Pn[j] = Pk[j]
-            else:          # a skipped model carries the combined smoothed estimate back: its
-                Xn[j] = xs[k]                # chain must not restart from its filter where
-                Pn[j] = T                    # it matters again earlier in the flight
-    return xs, Ps, mus
+    n = xm.shape[2]
+    kernel = _KERNELS.get(n)
+    if kernel is None:
+        kernel = _KERNELS[n] = _specialise(n)
+    return kernel(epoch_t, xm, Pm, mu, omega, q_steps, codes, Lam, prune)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
                x_next: np.ndarray, P_next: np.ndarray, x_pred: np.ndarray, P_pred: np.ndarray,
                FP: np.ndarray, C: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
-               x_out: np.ndarray, P_out: np.ndarray) -> None:
+               x_out: np.ndarray, P_out: np.ndarray, n: int) -> None:
     """One RTS step of a model pair: from the filtered ``x_f, P_f`` through ``F, Q`` to the
     smoothed ``x_next, P_next`` of the next epoch:
 
@@ -137,9 +176,10 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
         P = P_f + C (P_next - P_pred) C^T,  P_pred = F P_f F^T + Q.
 
     Every product runs its innermost loop over contiguous rows; ``F`` is sparse (at most three
-    non-zeros a row) and skipped where zero. Work arrays: ``x_pred, dx`` (n,), the rest (n, n).
+    non-zeros a row) and skipped where zero. Work arrays: ``x_pred, dx`` (n,), the rest (n, n);
+    ``n`` the state size (the caller's compile-time constant). Inlined, with the Cholesky
+    helpers.
     """
-    n = x_f.shape[0]
     for a in range(n):                                      # FP = F P_f, x_pred = F x_f
         acc = 0.0
         for b in range(n):
@@ -163,10 +203,10 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
     for a in range(n):                                      # E = P_next - P_pred
         for b in range(n):
             E[a, b] = P_next[a, b] - P_pred[a, b]
-    if not cholesky_inplace(P_pred, n):
+    if not _cholesky(P_pred, n):
         raise FloatingPointError("predicted covariance not positive definite in the IMM "
                                  "smoother")
-    chol_solve_inplace(P_pred, n, FP, n)                    # FP <- P_pred^-1 F P_f = C^T
+    _chol_solve(P_pred, n, FP, n)                    # FP <- P_pred^-1 F P_f = C^T
     for a in range(n):
         for b in range(n):
             C[a, b] = FP[b, a]

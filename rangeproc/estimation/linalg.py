@@ -15,7 +15,13 @@ from numba import njit
 @njit(cache=True, error_model="numpy")
 def pack(P: np.ndarray, out: np.ndarray) -> None:
     """Store the lower triangle of symmetric ``P`` (n, n) into ``out`` (n(n+1)/2,)."""
-    n = P.shape[0]
+    pack_n(P, out, P.shape[0])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def pack_n(P: np.ndarray, out: np.ndarray, n: int) -> None:
+    """:func:`pack` of the leading (n, n) block, inlined (a compile-time ``n`` in the
+    caller fixes the loops' size)."""
     k = 0
     for i in range(n):
         for j in range(i + 1):

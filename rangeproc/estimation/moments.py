@@ -5,6 +5,7 @@ between them. Used by ``estimation.forward`` and ``estimation.imm``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -24,6 +25,9 @@ from rangeproc.models.measurement import (
 #: Measurement update methods (``estimation.forward.FilterSettings.method``).
 EKF = 0
 UKF = 1
+#: The measurement components (range, azimuth, elevation; or a Cartesian position) and the
+#: state columns (position) they depend on: the first three of each.
+N_POSITION = 3
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -198,71 +202,103 @@ def add_linearisation_noise(model: int, sig_row: np.ndarray, idx: np.ndarray, m:
             sig_row[a] = math.sqrt(sig_row[a] * sig_row[a] + extra)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
-                x: np.ndarray, P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray,
-                L: np.ndarray, Zs: np.ndarray, xs: np.ndarray, h: np.ndarray, H: np.ndarray,
-                y6: np.ndarray, y: np.ndarray, C: np.ndarray, Z: np.ndarray) -> bool:
-    """Innovation moments of the measured components ``idx[:m]`` by the unscented transform.
+def specialise_ukf(n_fixed: int, inline: str) -> Callable:
+    """:func:`ukf_moments` compiled with the state size ``n_fixed`` a compile-time constant
+    (0: read from ``x``) and, with ``inline = "always"``, inlined into its caller with the
+    measurement model and the Cholesky factorisation inlined into it (the general function
+    below and the forward loop's fixed-size UKF, ``estimation.forward_loop``, are this one
+    source: the same operations in the same order)."""
+    N_FIXED = n_fixed
+    factor = cholesky_inplace
+    meas = measure
+    if inline == "always":
+        factor = njit(nogil=True, error_model="numpy", inline="always")(
+            cholesky_inplace.py_func)
+        meas = njit(nogil=True, error_model="numpy", inline="always")(measure.py_func)
 
-    Symmetric 2n+1 scaled sigma points (Ye and Cui sec. 2: ``lambda = alpha^2 (n + kappa) - n``,
-    weights ``W0m = lambda / (n + lambda)``, ``W0c = W0m + 1 - alpha^2 + beta``,
-    ``Wi = 1 / (2 (n + lambda))``) with ``ukf = [alpha, beta, kappa]``. Sigma-point azimuths
-    are unwrapped around the central point's before averaging. Fills ``y``, ``C`` (cross-
-    covariance transposed, (m, n)) and ``Z`` (predicted measurement covariance) like
-    :func:`ekf_moments`. Returns False when ``(n + lambda) P`` is not positive definite.
-    """
-    n = x.shape[0]
-    alpha, beta, kappa = ukf[0], ukf[1], ukf[2]
-    lam = alpha * alpha * (n + kappa) - n
-    c = n + lam
-    for i in range(n):
-        for j in range(n):
-            L[i, j] = c * P[i, j]
-    if not cholesky_inplace(L, n):
-        return False
-    wm0 = lam / c
-    wc0 = wm0 + 1.0 - alpha * alpha + beta
-    wi = 0.5 / c
-    for j in range(2 * n + 1):                           # h at each sigma point
+    @njit(cache=True, nogil=True, error_model="numpy", inline=inline)
+    def ukf_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
+                    x: np.ndarray, P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray,
+                    L: np.ndarray, Zs: np.ndarray, xs: np.ndarray, h: np.ndarray, H: np.ndarray,
+                    y6: np.ndarray, y: np.ndarray, C: np.ndarray, Z: np.ndarray) -> bool:
+        """Innovation moments of the measured components ``idx[:m]`` by the unscented transform.
+
+        Symmetric 2n+1 scaled sigma points (Ye and Cui sec. 2: ``lambda = alpha^2 (n + kappa) - n``,
+        weights ``W0m = lambda / (n + lambda)``, ``W0c = W0m + 1 - alpha^2 + beta``,
+        ``Wi = 1 / (2 (n + lambda))``) with ``ukf = [alpha, beta, kappa]``. Sigma-point azimuths
+        are unwrapped around the central point's before averaging. Fills ``y``, ``C`` (cross-
+        covariance transposed, (m, n)) and ``Z`` (predicted measurement covariance) like
+        :func:`ekf_moments`. Returns False when ``(n + lambda) P`` is not positive definite.
+
+        The points of the columns of the lower Cholesky factor beyond :data:`N_POSITION` move
+        no position (the factor is zero above its diagonal), so on a row that measures only
+        position components (range, angles, a Cartesian position) their ``h`` is the
+        centre's, bit for bit: copied, not recomputed (12 of the 19 points at nine states).
+        """
+        n = N_FIXED if N_FIXED > 0 else x.shape[0]
+        alpha, beta, kappa = ukf[0], ukf[1], ukf[2]
+        lam = alpha * alpha * (n + kappa) - n
+        c = n + lam
         for i in range(n):
-            xs[i] = x[i]
-        if j > 0:
+            for j in range(n):
+                L[i, j] = c * P[i, j]
+        if not factor(L, n):
+            return False
+        wm0 = lam / c
+        wc0 = wm0 + 1.0 - alpha * alpha + beta
+        wi = 0.5 / c
+        position_only = True                                 # the row measures position only
+        for a in range(m):
+            position_only = position_only and idx[a] < N_POSITION
+        for j in range(2 * n + 1):                           # h at each sigma point
             col = (j - 1) % n
-            sign = 1.0 if j <= n else -1.0
+            if j > 0 and position_only and col >= N_POSITION:
+                for cc in range(N_COMPONENTS):               # L's column moves no position:
+                    Zs[j, cc] = Zs[0, cc]                    # the centre's h, bit for bit
+                continue
             for i in range(n):
-                xs[i] += sign * L[i, col]
-        measure(model, xs, s, sv, Qr, h, H)
-        for cc in range(N_COMPONENTS):
-            Zs[j, cc] = h[cc]
-    if model == SPHERICAL:                               # azimuth continuity around point 0
-        for j in range(1, 2 * n + 1):
-            Zs[j, AZIMUTH] = Zs[0, AZIMUTH] + wrap_angle(Zs[j, AZIMUTH] - Zs[0, AZIMUTH])
-    for cc in range(N_COMPONENTS):                       # predicted measurement mean
-        acc = wm0 * Zs[0, cc]
-        for j in range(1, 2 * n + 1):
-            acc += wi * Zs[j, cc]
-        h[cc] = acc
-    innovation(model, z, h, y6)
-    for a in range(m):
-        i = idx[a]
-        y[a] = y6[i]
-        for k in range(n):                               # C = sum W (Z_j - zhat)(X_j - x)^T
-            C[a, k] = 0.0
-        for col in range(n):
-            d = wi * (Zs[1 + col, i] - Zs[1 + n + col, i])
-            for k in range(n):
-                C[a, k] += d * L[k, col]
-    for a in range(m):
-        ia = idx[a]
-        for b in range(a + 1):
-            ib = idx[b]
-            acc = wc0 * (Zs[0, ia] - h[ia]) * (Zs[0, ib] - h[ib])
+                xs[i] = x[i]
+            if j > 0:
+                sign = 1.0 if j <= n else -1.0
+                for i in range(n):
+                    xs[i] += sign * L[i, col]
+            meas(model, xs, s, sv, Qr, h, H)
+            for cc in range(N_COMPONENTS):
+                Zs[j, cc] = h[cc]
+        if model == SPHERICAL:                               # azimuth continuity around point 0
             for j in range(1, 2 * n + 1):
-                acc += wi * (Zs[j, ia] - h[ia]) * (Zs[j, ib] - h[ib])
-            Z[a, b] = acc
-            Z[b, a] = acc
-    return True
+                Zs[j, AZIMUTH] = Zs[0, AZIMUTH] + wrap_angle(Zs[j, AZIMUTH] - Zs[0, AZIMUTH])
+        for cc in range(N_COMPONENTS):                       # predicted measurement mean
+            acc = wm0 * Zs[0, cc]
+            for j in range(1, 2 * n + 1):
+                acc += wi * Zs[j, cc]
+            h[cc] = acc
+        innovation(model, z, h, y6)
+        for a in range(m):
+            i = idx[a]
+            y[a] = y6[i]
+            for k in range(n):                               # C = sum W (Z_j - zhat)(X_j - x)^T
+                C[a, k] = 0.0
+            for col in range(n):
+                d = wi * (Zs[1 + col, i] - Zs[1 + n + col, i])
+                for k in range(n):
+                    C[a, k] += d * L[k, col]
+        for a in range(m):
+            ia = idx[a]
+            for b in range(a + 1):
+                ib = idx[b]
+                acc = wc0 * (Zs[0, ia] - h[ia]) * (Zs[0, ib] - h[ib])
+                for j in range(1, 2 * n + 1):
+                    acc += wi * (Zs[j, ia] - h[ia]) * (Zs[j, ib] - h[ib])
+                Z[a, b] = acc
+                Z[b, a] = acc
+        return True
+
+    return ukf_moments
+
+
+#: The general unscented moments: any state size, called.
+ukf_moments = specialise_ukf(0, "never")
 
 
 @njit(cache=True, error_model="numpy")

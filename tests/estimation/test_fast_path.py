@@ -104,3 +104,39 @@ def test_textbook_smoother_agrees_with_the_symmetric_form() -> None:
     np.testing.assert_allclose(xs, xg[:, :9], rtol=0, atol=1e-9 * np.abs(xg).max())
     np.testing.assert_allclose(em, eg, rtol=1e-8, atol=1e-14)
     assert np.array_equal(P_fast, np.swapaxes(P_fast, 1, 2))
+
+
+def _general_at_nine(rows: FilterRows, prior: FilterPrior, settings: FilterSettings):
+    """The forward pass of ``settings`` through the general row code at nine states: the
+    spline filter's specialisation with an anomaly threshold that no epoch reaches, which
+    takes every row through the called moments and update (no knot, so no jerk input and
+    no adapted sigmas: its steps change nothing)."""
+    from rangeproc.estimation.forward import _f64, _i64
+    from rangeproc.estimation.forward_loop import forward_kernel
+    from rangeproc.families import family
+    common = (_f64(rows.epoch_t, 1), _i64(rows.meas_epoch), _i64(rows.model), _f64(rows.z, 2),
+              _f64(rows.sigma, 2), _f64(rows.s, 2), _f64(rows.sv, 2), _f64(rows.Qr, 3),
+              _i64(rows.sensor), _f64(prior.x0, 1), _f64(prior.P0, 2),
+              _f64(prior.q_steps, 1), _f64(settings.gate, 1), settings.reset_after,
+              settings.reset_inflation)
+    x_lin = np.empty((0, 9)) if prior.x_lin is None else _f64(prior.x_lin, 2)
+    never = np.full(64, np.inf)                    # anomaly quantiles: never anomalous
+    return forward_kernel(family("spline"), 9)(*common, x_lin, settings.method,
+                                                _f64(settings.ukf, 1), never)
+
+
+@pytest.mark.parametrize("method", [0, 1])
+def test_fixed_size_plain_families_give_the_general_row_codes_bits(method: int) -> None:
+    """The EKF's and the UKF's specialisations at nine states (fused moments and update)
+    against the general row code at the same size, on rows that exercise every branch."""
+    rows, prior = _rows()
+    settings = FilterSettings(GATE, method=method, reset_after=5, reset_inflation=100.0)
+    fast = run_filter(rows, prior, settings)
+    xf, Pf, nis, dof, rejected, loglik, n_resets, ll_rows = _general_at_nine(rows, prior,
+                                                                             settings)[:8]
+    assert fast.n_resets > 0 and len(set(fast.rejected.tolist())) > 3
+    assert np.array_equal(fast.xf, xf) and np.array_equal(fast.Pf, Pf)
+    for a, b in ((fast.nis, nis), (fast.dof, dof), (fast.rejected, rejected),
+                 (fast.ll_rows, ll_rows)):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert fast.loglik == loglik and fast.n_resets == n_resets

@@ -115,9 +115,31 @@ def test_a_run_loads_only_the_kernel_of_its_family() -> None:
         "from rangeproc.estimation.forward import FilterSettings, run_filter\n"
         "rows, prior, _ = _line()\n"
         "run_filter(rows, prior, FilterSettings(GATE))\n"
-        "for name, k in forward_loop._KERNELS.items():\n"
-        "    print(name, len(k.signatures))\n")
+        "for (name, n), k in forward_loop._KERNELS.items():\n"
+        "    print(f'{name}/{n}', len(k.signatures))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=300).stdout
     counts = dict(line.split() for line in out.splitlines())
-    assert counts == {"ekf": "1"}
+    assert counts == {"ekf/9": "1"}
+
+
+def test_the_specialised_loops_load_from_the_cache_in_a_fresh_process() -> None:
+    """A second fresh process loads the EKF's and the IMM's specialised loops from the
+    cache the first one filled (a compiled helper in a closure cell made numba miss it and
+    recompile in every process)."""
+    code = (
+        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
+        "import numpy as np\n"
+        "from test_run_filter import _line, GATE\n"
+        "from rangeproc.estimation import forward_loop, imm\n"
+        "from rangeproc.estimation.forward import FilterSettings, run_filter\n"
+        "rows, prior, _ = _line()\n"
+        "run_filter(rows, prior, FilterSettings(GATE))\n"
+        "run_filter(rows, prior, FilterSettings(GATE, imm=(np.array([0, 1]), "
+        "np.array([[-0.1, 0.1], [0.1, -0.1]]))))\n"
+        "for k in (forward_loop._KERNELS[('ekf', 9)], imm._KERNELS[9]):\n"
+        "    print(sum(k.stats.cache_misses.values()))\n")
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True, timeout=600).stdout
+    assert out.split() == ["0", "0"]
