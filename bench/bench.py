@@ -4,7 +4,8 @@
 
 1. Kernel benchmark (``bench/peers.py``): one radar range/azimuth/elevation data set, the same
    constant-acceleration EKF + RTS smoother run by rangeproc (compiled; first call timed on
-   its own, then two untimed calls, ``HEAP_WARMUP``, then the median of ``--reps`` calls), FilterPy (``--kernel-steps`` rows) and Stone
+   its own, then two untimed calls, ``HEAP_WARMUP``, then the median of ``--reps`` calls),
+   FilterPy (``--kernel-steps`` rows) and Stone
    Soup (its first ``--stonesoup-steps`` rows; rangeproc is rerun on that prefix for the
    agreement). Prints microseconds per measurement row, the ratios, and the agreement of
    filtered and smoothed positions. Then the UKF row: the same data with rangeproc's

@@ -34,6 +34,8 @@ those sensors measure.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -203,6 +205,19 @@ def object_extent(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
     smoothed state at each row's epoch ``xs`` (N, >=6) and the final pass's accepted
     components ``used`` (N, 6); ``radar`` (S,) bool: the sensors of kind radar. None (0) for
     an object with GPS or tracked-instrument rows, or without a radar's plots."""
+    return largest_per_sensor(batch, xs, used, radar,
+                              lambda rows, d, los, r: fit_extent(d, los, r, xs[rows, 3:5]))
+
+
+def largest_per_sensor(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
+                       radar: np.ndarray,
+                       estimate: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                                          Extent]) -> Extent:
+    """The largest ``estimate`` per axis over the radar sensors whose plots measure the
+    object alone (``plots_only``; else 0): ``estimate(rows, d, los, r)`` of each sensor's
+    rows with accepted range and azimuth, given their offsets from the track
+    (:func:`plot_offsets`). ``batch``, ``xs``, ``used``, ``radar`` as for
+    :func:`object_extent`."""
     if not plots_only(batch, radar):
         return Extent()
     ranged = ((batch.model == SPHERICAL) & radar[batch.sensor] & used[:, RANGE]
@@ -210,8 +225,7 @@ def object_extent(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
     best = Extent()
     for i in np.unique(batch.sensor[ranged]):
         rows = np.flatnonzero(ranged & (batch.sensor == i))
-        d, los, r = plot_offsets(batch, xs[rows], rows)
-        e = fit_extent(d, los, r, xs[rows, 3:5])
+        e = estimate(rows, *plot_offsets(batch, xs[rows], rows))
         best = Extent(along=max(best.along, e.along), across=max(best.across, e.across))
     return best
 

@@ -38,8 +38,8 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.fusion.extent import HEADING_SPEED, Extent, plot_offsets, plots_only
-from rangeproc.models.measurement import AZIMUTH, SPHERICAL
+from rangeproc.fusion.extent import HEADING_SPEED, Extent, largest_per_sensor
+from rangeproc.models.measurement import AZIMUTH
 
 #: The range component of a SPHERICAL row.
 RANGE = 0
@@ -118,16 +118,9 @@ def persistent_offset(batch: MeasurementBatch, xs: np.ndarray, used: np.ndarray,
     and the final pass's accepted components ``used`` (N, 6); ``radar`` (S,) bool: the sensors
     of kind radar. None (0) for an object with GPS or tracked-instrument rows, or without a
     radar's plots."""
-    if not plots_only(batch, radar):
-        return Extent()
-    ranged = ((batch.model == SPHERICAL) & radar[batch.sensor] & used[:, RANGE]
-              & used[:, AZIMUTH])
-    best = Extent()
-    for i in np.unique(batch.sensor[ranged]):
-        rows = np.flatnonzero(ranged & (batch.sensor == i))
-        d, los, r = plot_offsets(batch, xs[rows], rows)
+    def estimate(rows: np.ndarray, d: np.ndarray, los: np.ndarray, r: np.ndarray) -> Extent:
         near = stated_m2(d, los, r, batch.sigma[rows, RANGE], batch.sigma[rows, AZIMUTH]) \
             <= CHI2_2_999
-        e = lag_one_offset(batch.t[rows][near], d[near], xs[rows[near], 3:5])
-        best = Extent(along=max(best.along, e.along), across=max(best.across, e.across))
-    return best
+        return lag_one_offset(batch.t[rows][near], d[near], xs[rows[near], 3:5])
+
+    return largest_per_sensor(batch, xs, used, radar, estimate)
