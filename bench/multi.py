@@ -9,8 +9,20 @@ as the only target. The acceptance criteria: zero swaps, coverage >= 90 % of the
 object was observed (``coverage_observed``: from its first to its last measurement in
 ``truth_association.csv`` and its own GPS/MISTRAM files), RMSE within 1.25x of the oracle's,
 its best-matching output object >= 95 % pure.
-Coverage is printed at the 50 m cutoff and (``c.3x``) at max(50 m, 3x the oracle's RMSE):
-an object only a surveillance radar sees is tracked to its plots' 100 m, not to 50 m.
+Coverage is printed at the 50 m cutoff and (``c.3x``) at max(50 m, 3x the oracle's RMSE);
+the acceptance uses the second (*scaled*) cutoff. Why: an object that only the surveillance
+radar sees (4 s scans, 47 m in range, 0.3 deg in elevation: 50-160 m at its ranges) is
+tracked to its plots' accuracy, and even the true assignment, the same smoother on exactly
+that object's rows, is farther than 50 m from it for most of its span; at 50 m such an object
+fails whatever the association does. At 3x the accuracy the true assignment reaches on the
+object, a covered epoch means "tracked as well as its sensors allow", and a missing or wrong
+association (a late start, a gap, a track on another object) still counts as uncovered. For an
+object a precise sensor sees (oracle RMSE <= 16.7 m) the scaled cutoff is the 50 m one. Both
+figures stay in the JSON, with the oracle's own coverage at both cutoffs (``oracle_coverage_
+observed``, ``oracle_coverage_scaled``): a shortfall the oracle shares is the estimator's and
+the sensors', not the association's. After the table the acceptance is counted per kind at
+both cutoffs (``acceptance`` in the JSON), each object outside it listed with the criteria it
+misses.
 Purity (``pur``) is counted on rows: the share of the output object's radar/theodolite rows
 that are the truth object's (``truth_association.csv``; clutter counts against it), so that
 it measures the association, not the sensors' accuracy against a cutoff. ``extra`` counts
@@ -21,6 +33,7 @@ its rows are labelled ``scale`` (10, the kind's default) and ``scale-N`` otherwi
 
     python bench/multi.py [--kinds crossing ...] [--seeds 1 2 3] [--scale-objects 10 20]
                           [--out bench/multi.json]
+    python bench/multi.py --summarise docs/measurements/multi.json   # tables of a result
 
 The JSON is ``{"meta": ..., "rows": [...]}`` (``bench/meta.py``); ``make multi`` writes it to
 docs/measurements/multi.json.
@@ -42,12 +55,19 @@ try:
 except ModuleNotFoundError:                       # Python 3.10
     import tomli as tomllib
 
-from meta import with_meta  # bench/ is on sys.path: scripts, not a package
+from meta import rows as rows_of, with_meta  # bench/ is on sys.path: scripts, not a package
 
 from rangeproc.evaluate import evaluate_run
+from rangeproc.evaluate.multi import multi_object_metrics, summarise
+from rangeproc.evaluate.truth import load_truth
 from rangeproc.pipeline import run
 from rangeproc.simulate import MULTI_KINDS, simulate_multi
 from rangeproc.simulate.multi import DEFAULT_OBJECTS
+
+#: the acceptance (issue 41): RMSE within RATIO_LIMIT x the oracle's, coverage of the observed
+#: span >= COVERAGE_LIMIT, best match >= PURITY_LIMIT pure in rows, no swaps
+RATIO_LIMIT, COVERAGE_LIMIT, PURITY_LIMIT = 1.25, 0.90, 0.95
+CUTOFF_M, SCALE_SIGMAS = 50.0, 3.0  #: the evaluation cutoff (m); the scaled one's multiple
 
 
 def _blocks(text: str) -> tuple[str, list[str]]:
@@ -121,6 +141,26 @@ def row_purity(scen: Path, out: Path) -> dict[str, float]:
             for k, g in both.groupby("target_id")}
 
 
+def oracle_coverage(out: Path, truth_path: Path, obj: str, span: tuple[float, float] | None,
+                    cutoffs: tuple[float, ...]) -> list[float | None]:
+    """The oracle's own ``coverage_observed`` of ``obj`` at each cutoff (m): its output object
+    ``obj`` (``out/fused.parquet``) against that object's truth alone."""
+    fused = pd.read_parquet(out / "fused.parquet", columns=["time", "target_id", "e", "n", "u"])
+    fused = fused[fused.target_id.astype(str) == obj]
+    truth = load_truth(truth_path, out, None)
+    mine = truth.target_id == obj
+    if fused.empty or not mine.any() or span is None:
+        return [None for _ in cutoffs]
+    got = []
+    for cut in cutoffs:
+        ev = multi_object_metrics(fused.time.to_numpy(float), fused.target_id.to_numpy(str),
+                                  fused[["e", "n", "u"]].to_numpy(float), truth.time[mine],
+                                  truth.target_id[mine], truth.pos[mine], cutoff=cut,
+                                  where=str(out / "fused.parquet"))
+        got.append(summarise(ev, {obj: span})["truth"][obj]["coverage_observed"])
+    return got
+
+
 def scenarios(kinds: list[str], scale_objects: list[int]) -> list[tuple[str, str, int | None]]:
     """(label, kind, n_objects) of the sweep: kind ``scale`` once per count in
     ``scale_objects`` (labelled ``scale`` at the kind's default, else ``scale-N``)."""
@@ -151,7 +191,7 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
                     continue
                 elapsed = time.perf_counter() - t0
                 spans = observed_spans(scen)
-                multi = evaluate_run(scen / "out", scen / "truth.csv", cutoff=50.0,
+                multi = evaluate_run(scen / "out", scen / "truth.csv", cutoff=CUTOFF_M,
                                      observed=spans)["multi"]
                 purity = row_purity(scen, scen / "out")
                 matched = {m.get("best_match") for m in multi["truth"].values()}
@@ -169,7 +209,13 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
                     # covered = tracked: within the cutoff or within 3x the accuracy the
                     # true assignment reaches on this object (a surveillance-only object's
                     # 100 m are its sensor's, not an association failure)
-                    scaled = max(50.0, 3.0 * oracle) if oracle else 50.0
+                    scaled = max(CUTOFF_M, SCALE_SIGMAS * oracle) if oracle else CUTOFF_M
+                    try:
+                        o50, o3x = oracle_coverage(oc.parent / "out", oc.parent / "truth.csv",
+                                                   obj, spans.get(obj), (CUTOFF_M, scaled))
+                    except Exception as exc:
+                        o50 = o3x = None
+                        print(f"  oracle coverage {obj}: {exc}")
                     cov_scaled = evaluate_run(scen / "out", scen / "truth.csv", cutoff=scaled,
                                               observed=spans)["multi"]["truth"][obj]
 
@@ -182,6 +228,8 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
                                  "coverage_observed": m.get("coverage_observed"),
                                  "cutoff_scaled": scaled,
                                  "coverage_scaled": cov_scaled.get("coverage_observed"),
+                                 "oracle_coverage_observed": o50,
+                                 "oracle_coverage_scaled": o3x,
                                  "swaps": m.get("swaps"),
                                  "fragments": m.get("fragmentation"),
                                  "row_purity": purity.get(m.get("best_match")),
@@ -192,6 +240,77 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
     return rows
 
 
+def misses(r: dict, coverage: str = "coverage_scaled") -> list[str]:
+    """The acceptance criteria object row ``r`` misses (empty: accepted), coverage read from
+    ``coverage`` (``coverage_scaled``: the acceptance; ``coverage_observed``: at 50 m)."""
+    out = []
+    if r.get("swaps"):
+        out.append("swaps")
+    if r.get("ratio") is None or r["ratio"] > RATIO_LIMIT:
+        out.append("ratio")
+    if (r.get(coverage) or 0.0) < COVERAGE_LIMIT:
+        out.append("coverage")
+    if r.get("row_purity") is not None and r["row_purity"] < PURITY_LIMIT:
+        out.append("purity")
+    return out
+
+
+def acceptance(rows: list[dict]) -> dict[str, dict]:
+    """Per kind label: objects, runs failed, objects accepted at 50 m and at the scaled cutoff,
+    and the objects outside the (scaled) acceptance with the criteria they miss
+    (``coverage (oracle too)`` where the oracle's own scaled coverage is short as well)."""
+    out: dict[str, dict] = {}
+    for r in rows:
+        k = out.setdefault(r["kind"], {"objects": 0, "errors": 0, "accepted_50m": 0,
+                                       "accepted_scaled": 0, "outside": []})
+        if "error" in r:
+            k["errors"] += 1
+            continue
+        k["objects"] += 1
+        k["accepted_50m"] += not misses(r, "coverage_observed")
+        miss = misses(r)
+        k["accepted_scaled"] += not miss
+        if miss:
+            short = (r.get("oracle_coverage_scaled") is not None
+                     and r["oracle_coverage_scaled"] < COVERAGE_LIMIT)
+            miss = [m + (" (oracle too)" if m == "coverage" and short else "") for m in miss]
+            k["outside"].append(f"{r['seed']} {r['object']}: {', '.join(miss)}")
+    return out
+
+
+def print_tables(rows: list[dict]) -> None:
+    """The per-object table and the acceptance per kind (stdout: a bench script's report)."""
+    print(f"\n{'kind':<16}{'seed':>5} {'object':<7}{'match':<7}{'RMSE m':>9}{'oracle':>9}"
+          f"{'ratio':>7}{'cover':>7}{'c.obs':>7}{'c.3x':>7}{'o.3x':>7}{'swaps':>6}{'frag':>5}"
+          f"{'pur':>6}{'extra':>6}")
+    for r in rows:
+        if "error" in r:
+            print(f"{r['kind']:<16}{r['seed']:>5} error: {r['error']}")
+            continue
+
+        def f(v, fmt: str) -> str:
+            width = int(re.match(r"\d*", fmt).group() or 0)
+            return format(v, fmt) if isinstance(v, (int, float)) else "-".rjust(width)
+        print(f"{r['kind']:<16}{r['seed']:>5} {r['object']:<7}{str(r['match']):<7}"
+              f"{f(r['rmse'], '9.2f')}{f(r['oracle_rmse'], '9.2f')}{f(r['ratio'], '7.2f')}"
+              f"{f(r['coverage'], '7.3f')}{f(r.get('coverage_observed'), '7.3f')}"
+              f"{f(r.get('coverage_scaled'), '7.3f')}{f(r.get('oracle_coverage_scaled'), '7.3f')}"
+              f"{f(r['swaps'], '6d')}{f(r['fragments'], '5d')}"
+              f"{f(r.get('row_purity'), '6.2f')}{f(r.get('extra_objects'), '6d')}")
+    print(f"\nAcceptance (no swaps, RMSE <= {RATIO_LIMIT:g}x the oracle's, purity >= "
+          f"{PURITY_LIMIT:g}, coverage of the observed span >= {COVERAGE_LIMIT:g} at the "
+          f"scaled cutoff max({CUTOFF_M:g} m, {SCALE_SIGMAS:g}x the oracle's RMSE); at "
+          f"{CUTOFF_M:g} m for comparison)")
+    print(f"{'kind':<16}{'objects':>8}{'failed runs':>12}{'at 50 m':>9}{'scaled':>8}  outside")
+    acc = acceptance(rows)
+    total = [sum(a[key] for a in acc.values())
+             for key in ("objects", "errors", "accepted_50m", "accepted_scaled")]
+    for kind, a in acc.items():
+        print(f"{kind:<16}{a['objects']:>8}{a['errors']:>12}{a['accepted_50m']:>9}"
+              f"{a['accepted_scaled']:>8}  {'; '.join(a['outside'])}")
+    print(f"{'all':<16}{total[0]:>8}{total[1]:>12}{total[2]:>9}{total[3]:>8}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--kinds", nargs="+", default=list(MULTI_KINDS),
@@ -200,26 +319,18 @@ def main() -> None:
     ap.add_argument("--scale-objects", type=int, nargs="+", default=[10, 20],
                     help="object counts of kind scale (default: 10 and 20)")
     ap.add_argument("--out", type=Path, default=Path("bench/multi.json"))
+    ap.add_argument("--summarise", type=Path, metavar="JSON",
+                    help="print the tables of a result written before, run nothing")
     args = ap.parse_args()
+    if args.summarise is not None:
+        print_tables(rows_of(json.loads(args.summarise.read_text())))
+        return
     rows = sweep(args.kinds, args.seeds, args.scale_objects)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(with_meta(rows), indent=2) + "\n")
-    print(f"\n{'kind':<16}{'seed':>5} {'object':<7}{'match':<7}{'RMSE m':>9}{'oracle':>9}"
-          f"{'ratio':>7}{'cover':>7}{'c.obs':>7}{'c.3x':>7}{'swaps':>6}{'frag':>5}"
-          f"{'pur':>6}{'extra':>6}")
-    for r in rows:
-        if "error" in r:
-            print(f"{r['kind']:<16}{r['seed']:>5} error: {r['error']}")
-            continue
-
-        def f(v, fmt: str) -> str:
-            return format(v, fmt) if isinstance(v, (int, float)) else "-"
-        print(f"{r['kind']:<16}{r['seed']:>5} {r['object']:<7}{str(r['match']):<7}"
-              f"{f(r['rmse'], '9.2f')}{f(r['oracle_rmse'], '9.2f')}{f(r['ratio'], '7.2f')}"
-              f"{f(r['coverage'], '7.3f')}{f(r.get('coverage_observed'), '7.3f')}"
-              f"{f(r.get('coverage_scaled'), '7.3f')}"
-              f"{f(r['swaps'], '6d')}{f(r['fragments'], '5d')}"
-              f"{f(r.get('row_purity'), '6.2f')}{f(r.get('extra_objects'), '6d')}")
+    result = with_meta(rows)
+    result["acceptance"] = acceptance(rows)
+    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    print_tables(rows)
 
 
 if __name__ == "__main__":
