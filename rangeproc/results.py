@@ -22,7 +22,9 @@ class TrackEstimate:
     sensors: (K,) str, the ids of those sensors, comma-separated (provenance); data_gap: (K,)
     s from the epoch to the nearest used measurement of any sensor (large inside a bridged gap);
     achievable: (K, 3) m, the 1-sigma position the instruments allow along this trajectory
-    (``fusion.achievable``; NaN inside a bridged gap), None when not computed.
+    (``fusion.achievable``; NaN inside a bridged gap), None when not computed; unwritten:
+    ((t_first, t_last), ...) s, the output epochs of each stretch left out because the
+    object's own position rows reject the trajectory there (``fusion.support``).
     """
 
     target_id: str
@@ -38,6 +40,7 @@ class TrackEstimate:
     sensors: np.ndarray | None = None
     data_gap: np.ndarray | None = None
     achievable: np.ndarray | None = None
+    unwritten: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -320,6 +320,10 @@ class TargetSummary(TypedDict):
         "the spans estimated separately, `[start, end]` (s)")]
     gaps: Annotated[list[list[float]], Doc(
         "stretches without a used measurement, `[start, end]` (s)")]
+    unwritten: Annotated[list[list[float]], Doc(
+        "stretches `[first, last]` (s) of output epochs not written because the object's own "
+        "position rows reject the trajectory there ([Estimators: support]"
+        "(methods/estimators.md#support)); empty when every epoch is written")]
     max_gap_s: Annotated[float, Doc("the gap (s) beyond which an object is split into spans")]
     process_noise_q: Annotated[ProcessNoiseRecord, Doc(
         "the estimated manoeuvre level (white-jerk PSD, m²/s⁵): `median`, `p95`, `max`")]

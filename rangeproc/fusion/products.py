@@ -9,7 +9,7 @@ from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.frames.geodesy import RangeFrame
 from rangeproc.fusion.estimator_types import FusionResult
-from rangeproc.fusion.support import supported
+from rangeproc.fusion.support import left_out, supported
 from rangeproc.models.measurement import COMPONENTS
 from rangeproc.results import SensorResiduals, TrackEstimate
 
@@ -133,6 +133,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     achievable[~filled] = achievable_sigma(result)
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
+    unwritten = left_out(t, keep)
     t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
     if lever_arm is not None:                           # the user's point on the object
         x = x.copy()
@@ -150,7 +151,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     return TrackEstimate(target_id=target_id, time=t, x=x, P=P, n_sensors=ns,
                          lat=np.asarray(lat), lon=np.asarray(lon), height=np.asarray(h),
                          spans=result.spans, model_prob=prob, sensors=names, data_gap=gap,
-                         achievable=achievable)
+                         achievable=achievable, unwritten=unwritten)
 
 
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,

@@ -102,3 +102,15 @@ def supported(t: np.ndarray, batch: MeasurementBatch, used: np.ndarray, res: np.
     for lo, hi in unsupported_stretches(batch.t, is_position, fits):
         keep &= ~((t > lo) & (t < hi))
     return keep
+
+
+def left_out(t: np.ndarray, keep: np.ndarray) -> tuple[tuple[float, float], ...]:
+    """The runs of epochs ``t`` (E,) s that ``keep`` (E,) bool leaves out, as
+    ((first, last), ...) s: what :func:`supported` did not let be written."""
+    out = np.flatnonzero(~keep)
+    if out.size == 0:
+        return ()
+    breaks = np.flatnonzero(np.diff(out) > 1)
+    starts = np.r_[out[0], out[breaks + 1]]
+    ends = np.r_[out[breaks], out[-1]]
+    return tuple((float(t[a]), float(t[b])) for a, b in zip(starts, ends))

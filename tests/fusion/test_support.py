@@ -8,6 +8,7 @@ from rangeproc.fusion.centralised import fuse_target
 from rangeproc.fusion.products import track_estimate
 from rangeproc.fusion.support import (
     MIN_UNFIT_SECONDS,
+    left_out,
     position_rows,
     supported,
     unsupported_stretches,
@@ -95,3 +96,11 @@ def test_an_object_with_another_objects_rows_is_not_written_where_they_took_it()
     err = track.x[:, :3] - truth
     sig = np.sqrt(np.einsum("nii->ni", track.P[:, :3, :3]))
     assert (np.abs(err) <= 3.0 * sig + 1e-9).mean() >= 0.95
+
+
+def test_left_out_names_each_run_of_epochs_not_written():
+    t = np.arange(10.0)
+    keep = np.array([1, 0, 0, 1, 1, 0, 1, 1, 0, 0], bool)
+    assert left_out(t, keep) == ((1.0, 2.0), (5.0, 5.0), (8.0, 9.0))
+    assert left_out(t, np.ones(10, bool)) == ()
+    assert left_out(t, np.zeros(10, bool)) == ((0.0, 9.0),)
