@@ -58,7 +58,7 @@ from rangeproc.fusion.noise import correlation_factors, difference_sigma, discou
 from rangeproc.fusion.passes import PassResult, constraint_agrees, imm_start, run_pass
 from rangeproc.fusion.refinement import PassInputs, Refinement, refine, searched_q
 from rangeproc.fusion.registration import apply_increments, calibration_covariance
-from rangeproc.fusion.support import position_rows, unsupported_stretches
+from rangeproc.fusion.support import unsupported_time
 from rangeproc.fusion.thinning import PassRows, thinned_pass_rows, thinning_stride
 from rangeproc.quantiles import chi2_ppf
 
@@ -269,8 +269,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
     # the first pass of the IMM is the constant-acceleration EKF (it starts the IMM's models),
     # of the strong-tracking UKF the UKF (fading is for model errors the refined noise and
     # process noise leave, not for a track still converging from its start)
-    first_pass = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
-                         settings.with_filter(family.first()), np.empty((0, x0.shape[0])))
+    first_pass = _first_pass_call(work, x0, P0, q, gate, settings)
     first = first_pass()
     if p.adapt_noise and p.process_noise is None and settings.discount_first_pass:
         start = _FirstPass(batch, full, work, q, first_pass, first)
@@ -320,7 +319,7 @@ def _white_or_discounted(white: _FirstPass, grid_t: np.ndarray, x0: np.ndarray,
     (``fusion.noise.correlation_factors``), the process noise searched again and the pass
     run again with those rows discounted: whichever leaves less time unsupported (a tie
     keeps the white pass)."""
-    before = unsupported_time(white.work.batch, white.out)
+    before = unsupported_time(white.work.batch, white.out.used, white.out.res)
     if before <= 0.0:
         return white
     factors = correlation_factors(white.work.batch, white.out.res, white.out.used)
@@ -331,23 +330,21 @@ def _white_or_discounted(white: _FirstPass, grid_t: np.ndarray, x0: np.ndarray,
     full = PassRows.of(batch, grid_t)
     work = thinned_pass_rows(full, grid_t, p.noise_passes)
     q = _first_q(full, work, x0, P0, gate, settings)
-    run = partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
-                  settings.with_filter(settings.family.first()), np.empty((0, x0.shape[0])))
+    run = _first_pass_call(work, x0, P0, q, gate, settings)
     again = _FirstPass(batch, full, work, q, run, run())
-    after = unsupported_time(white.work.batch, again.out)
+    after = unsupported_time(white.work.batch, again.out.used, again.out.res)
     log.info("pass 1: errors correlated in time (%s): %.1f s unsupported white, %.1f s "
              "discounted", ", ".join(f"{batch.sensor_ids[s]}[{c}] x{f:.2f}"
                                      for (s, c), f in factors.items()), before, after)
     return again if after < before else white
 
 
-def unsupported_time(batch: MeasurementBatch, out: PassResult) -> float:
-    """Seconds of ``batch``'s span that a pass ``out`` leaves unsupported by its position
-    rows (``fusion.support.unsupported_stretches``, judged at the rows' own sigmas)."""
-    is_position, fits = position_rows(batch, out.used, out.res)
-    t0, t1 = float(batch.t[0]), float(batch.t[-1])
-    return sum(min(hi, t1) - max(lo, t0)
-               for lo, hi in unsupported_stretches(batch.t, is_position, fits))
+def _first_pass_call(work: PassRows, x0: np.ndarray, P0: np.ndarray, q: np.ndarray,
+                     gate: np.ndarray, settings: EstimatorSettings) -> Callable[[], PassResult]:
+    """The first pass over ``work``'s rows from (x0, P0) with process noise ``q`` (E,), by
+    the family's first filter, as a call that runs it (again)."""
+    return partial(run_pass, work.batch, work.epoch_t, work.meas_epoch, x0, P0, q, gate,
+                   settings.with_filter(settings.family.first()), np.empty((0, x0.shape[0])))
 
 
 def _start_state(batch: MeasurementBatch, t0: float, prior: Prior | None, from_prior: bool

@@ -92,6 +92,16 @@ def unsupported_stretches(t_rows: np.ndarray, is_position: np.ndarray, fits: np.
     return out
 
 
+def unsupported_time(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray) -> float:
+    """Seconds of ``batch``'s span left unsupported (:func:`unsupported_stretches`) by a pass
+    with accepted components ``used`` (N, 6) and smoothed residuals ``res`` (N, 6), its rows
+    judged at their own sigmas."""
+    is_position, fits = position_rows(batch, used, res)
+    t0, t1 = float(batch.t[0]), float(batch.t[-1])
+    return sum(min(hi, t1) - max(lo, t0)
+               for lo, hi in unsupported_stretches(batch.t, is_position, fits))
+
+
 def supported(t: np.ndarray, batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
               stated: np.ndarray | None = None) -> np.ndarray:
     """(E,) bool: output epochs ``t`` (E,) s outside every unsupported stretch of the rows
