@@ -118,6 +118,41 @@ def objects_table(summary: RunSummary) -> str:
                    "divergence resets", "segments"], rows, set(range(1, 11)))
 
 
+def _along_across(record: dict | None) -> str:
+    """``along / across`` (m) of an extent-like record, or a dash."""
+    if not record:
+        return "–"
+    return f"{_num(record.get('along'), 3)} / {_num(record.get('across'), 3)}"
+
+
+def reference_table(summary: RunSummary) -> str:
+    """Where the reference point of each object measured by plots alone can be: the 1-sigma
+    spreads (m) whose largest per axis the position covariance carries (``targets.<id>``:
+    ``extent_sigma_m``, ``persistent_offset_sigma_m``, ``return_spread_sigma_m``,
+    ``reference_sigma_m``) and the output left unwritten by the support rule (s); empty when
+    no object has any (point objects, instrumented aircraft)."""
+    rows = []
+    for oid, t in summary.get("targets", {}).items():
+        spreads = [t.get("reference_sigma_m") or 0.0, t.get("return_spread_sigma_m") or 0.0,
+                   *((t.get(k) or {}).get(a) or 0.0 for k in
+                     ("extent_sigma_m", "persistent_offset_sigma_m") for a in ("along", "across"))]
+        unwritten = sum(float(b) - float(a) for a, b in t.get("unwritten") or [])
+        if not any(spreads) and not unwritten:
+            continue
+        rows.append([esc(oid), _along_across(t.get("extent_sigma_m")),
+                     _along_across(t.get("persistent_offset_sigma_m")),
+                     _num(t.get("return_spread_sigma_m"), 3), _num(t.get("reference_sigma_m"), 3),
+                     _num(unwritten, 3)])
+    if not rows:
+        return ""
+    return ("<h2>Reference point</h2><p>1-sigma spreads of where each object's reference point "
+            "can be about the track (m); the position sigma carries the largest per axis. "
+            "Unwritten: output seconds left out where the object's own plots reject the "
+            "trajectory.</p>" + html_table(
+                ["object", "hull along / across (m)", "persistent offset along / across (m)",
+                 "return spread (m)", "reference (m)", "unwritten (s)"], rows, {3, 4, 5}))
+
+
 def sensors_table(summary: RunSummary) -> str:
     """The per-sensor table: counts, noise and calibration."""
     rows = []
@@ -272,7 +307,7 @@ def page_html(summary: RunSummary, figures: Sequence[Path], title: str) -> str:
         f"<h1>{esc(title)}</h1><p class=\"meta\">{meta}</p>",
         _times_line(summary),
         warnings_box(summary),
-        "<h2>Objects</h2>", objects_table(summary),
+        "<h2>Objects</h2>", objects_table(summary), reference_table(summary),
         "<h2>Sensors</h2>", sensors_table(summary),
         "<h2>Rejected points</h2>", rejected_table(summary),
         f"<h2>Figures</h2><nav>{nav}</nav>",

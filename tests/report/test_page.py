@@ -84,6 +84,23 @@ def test_page_shows_unobservable_terms_with_their_reason(tmp_path: Path) -> None
     assert "latency: <i>unobservable</i> (GPS is the reference &lt;of time&gt;)" in html
 
 
+def test_page_shows_where_a_plot_objects_reference_point_can_be() -> None:
+    boat = {"extent_sigma_m": {"along": 4.25, "across": 1.5},
+            "persistent_offset_sigma_m": {"along": 3.125, "across": 0.0},
+            "return_spread_sigma_m": 2.75, "reference_sigma_m": 0.5,
+            "unwritten": [[10.0, 22.5], [40.0, 41.0]]}
+    aircraft = {"extent_sigma_m": {"along": 0.0, "across": 0.0}, "reference_sigma_m": 0.0,
+                "persistent_offset_sigma_m": {"along": 0.0, "across": 0.0},
+                "return_spread_sigma_m": 0.0, "unwritten": []}
+    html = page_html({"sensors": {}, "targets": {"B1": boat, "T1": aircraft}}, [], "t")
+    table = html.split("<h2>Reference point</h2>", 1)[1].split("<h2>", 1)[0]
+    assert "4.25 / 1.5" in table and "3.12 / 0" in table and "2.75" in table
+    assert "13.5" in table                                     # 12.5 s + 1 s unwritten
+    assert "B1" in table and "T1" not in table                 # a point object has no row
+    assert "Reference point" not in page_html(
+        {"sensors": {}, "targets": {"T1": aircraft}}, [], "t")
+
+
 # ------------------------------------------------------------------ in a real browser
 def test_page_loads_in_chromium_with_every_figure_shown(browser, open_page, sample_run,
                                                         tmp_path) -> None:
