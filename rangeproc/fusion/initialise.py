@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rangeproc.errors import DataError
-from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
+from rangeproc.fusion.assemble import assumed_elevation
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 from rangeproc.models.motion import N_KINEMATIC
@@ -15,11 +15,21 @@ from rangeproc.models.motion import N_KINEMATIC
 #: Prior 1-sigma around the fitted start (m, m/s, m/s^2): generous, so that the prior does not
 #: bias the smoothed start and early good rows pass the gate.
 PRIOR_SIGMA = (100.0, 50.0, 30.0)
-#: A start fix farther than this many of its accuracies from the Huber line sends the start
-#: to the redescending fit (``_redescending_line``); below it the Huber line stands.
+#: A start fix farther than this many of its accuracies from the Huber line, or from the
+#: redescending line (``_redescending_line``), is gross: the start takes the redescending line.
 GROSS_START_SIGMAS = 10.0
+#: A start fix this many of its accuracies from the Huber line may hide a gross one that
+#: leaned the line: the redescending line is then fitted to look (with five fixes, one plot
+#: 17 accuracies off the others lay 7.4 from the Huber line).
+LEANED_START_SIGMAS = 5.0
 #: Tukey biweight constant (95 % efficiency under Gaussian errors).
 TUKEY_C = 4.685
+#: Where the start found gross fixes among the first, the prior's position 1-sigma is
+#: narrowed (from ``PRIOR_SIGMA[0]``, never below the fit's robust scale) so that the nearest
+#: gross fix lies this many sigmas from the start, beyond any gate: a prior as wide as 100 m
+#: let the filter take the very outlier the fit left out (a clutter plot 130 m off a boat's
+#: first plots), and the track started on it.
+START_GATE_SIGMAS = 6.0
 
 
 class NoPositionFix(DataError):
@@ -67,7 +77,7 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     """Rows that fix position on their own and the fixed positions.
 
     Returns (row indices (M,), positions (M, 3) range ENU m, 1-sigma (M,) m, a scalar
-    accuracy used as the fit weight): GPS rows with a full position, and radar/theodolite rows
+    accuracy used as the fit weight; without the height of an assumed elevation): GPS rows with a full position, and radar/theodolite rows
     with range, azimuth and elevation. Where fewer than two such rows exist, rows with range
     and azimuth but no elevation (a 2-D radar: a navigation radar's or a lidar's plots) are
     taken in the sensor's horizontal plane (elevation 0 ± :data:`PLANE_ELEVATION_SIGMA`):
@@ -94,7 +104,9 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     # local = Qr (p - s)  =>  p = s + Qr^T local
     pos = batch.s[rows] + np.einsum("nji,nj->ni", batch.Qr[rows], local)
     sig = batch.sigma[rows].copy()
-    sig[is_plane, 2] = PLANE_ELEVATION_SIGMA
+    # an assumed elevation (2-D radar, lidar) is the same plane for every fix: its vertical
+    # spread is no measure of how far apart two fixes may lie, so it leaves the accuracy
+    sig[is_plane | assumed_elevation(batch)[rows], 2] = 0.0
     acc = np.where(is_cart, np.sqrt(sig[:, 0] ** 2 + sig[:, 1] ** 2 + sig[:, 2] ** 2),
                    np.sqrt(sig[:, 0] ** 2 + (zc[:, 0] * sig[:, 1]) ** 2
                            + (zc[:, 0] * sig[:, 2]) ** 2))
@@ -110,12 +122,13 @@ def _redescending_line(t: np.ndarray, p: np.ndarray, acc: np.ndarray, fallback: 
     of the distances). Huber weights cannot do this with few fixes: one plot of clutter
     kilometres away at the start of a surveillance radar's track still leaned its velocity
     by hundreds of m/s, the gate then rejected the object's own plots and the track left for
-    a thousand kilometres. ``fallback`` is returned when fewer than two fixes keep weight."""
+    a thousand kilometres. Returns the line and its robust scale (m); ``fallback`` and None
+    when fewer than two fixes keep weight."""
     i, j = np.triu_indices(t.size, 1)
     dt = t[j] - t[i]
     ok = dt > 0.0
     if not ok.any():
-        return fallback
+        return fallback, None
     slope = np.median((p[j][ok] - p[i][ok]) / dt[ok, None], axis=0)
     coef = np.vstack([np.median(p - t[:, None] * slope, axis=0), slope])
     A = np.column_stack([np.ones_like(t), t])
@@ -125,10 +138,10 @@ def _redescending_line(t: np.ndarray, p: np.ndarray, acc: np.ndarray, fallback: 
         u = dist / (TUKEY_C * scale)
         w = np.where(u < 1.0, (1.0 - u * u) ** 2, 0.0) / acc ** 2
         if np.count_nonzero(w) < 2 or np.ptp(t[w > 0]) <= 0.0:
-            return fallback
+            return fallback, None
         sw = np.sqrt(w)[:, None]
         coef = np.linalg.lstsq(A * sw, p * sw, rcond=None)[0]
-    return coef
+    return coef, scale
 
 
 def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
@@ -162,13 +175,21 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         huber = np.where(resid <= 2.0, 1.0, 2.0 / np.maximum(resid, 1e-12))
         w = huber / np.maximum(acc[take], 1e-3) ** 2
     spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc[take], 1e-3)
-    if len(tt) >= 3 and spread.max() > GROSS_START_SIGMAS:
-        coef = _redescending_line(tt, pp, np.maximum(acc[take], 1e-3), coef)
+    sp, sv, sa = PRIOR_SIGMA
+    if len(tt) >= 3 and spread.max() > LEANED_START_SIGMAS:
+        a = np.maximum(acc[take], 1e-3)
+        robust, scale = _redescending_line(tt, pp, a, coef)
+        off = np.linalg.norm(pp - A @ robust, axis=1)
+        gross = off / a > GROSS_START_SIGMAS
+        if scale is not None and gross.any():     # keep the gross fixes out of the gate too
+            coef = robust
+            sp = min(sp, max(scale, float(off[gross].min()) / START_GATE_SIGMAS))
+        elif spread.max() > GROSS_START_SIGMAS:
+            coef = robust
     x0 = np.zeros(n_state)
     x0[0:3] = coef[0]
     x0[3:6] = coef[1] if len(tt) > 1 and np.ptp(tt) > 0 else 0.0
     P0 = np.zeros((n_state, n_state))
-    sp, sv, sa = PRIOR_SIGMA
     P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc[take])) ** 2
     P0[np.arange(3, 6), np.arange(3, 6)] = sv ** 2
     P0[np.arange(6, 9), np.arange(6, 9)] = sa ** 2
