@@ -16,7 +16,8 @@ from rangeproc.models.motion import N_KINEMATIC
 #: bias the smoothed start and early good rows pass the gate.
 PRIOR_SIGMA = (100.0, 50.0, 30.0)
 #: A start fix farther than this many of its accuracies from the Huber line, or from the
-#: redescending line (``_redescending_line``), is gross: the start takes the redescending line.
+#: redescending line (``_redescending_line``) by this many of its accuracies and of that
+#: line's robust scale, is gross: the start takes the redescending line.
 GROSS_START_SIGMAS = 10.0
 #: A start fix this many of its accuracies from the Huber line may hide a gross one that
 #: leaned the line: the redescending line is then fitted to look (with five fixes, one plot
@@ -77,12 +78,12 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     """Rows that fix position on their own and the fixed positions.
 
     Returns (row indices (M,), positions (M, 3) range ENU m, 1-sigma (M,) m, a scalar
-    accuracy used as the fit weight; without the height of an assumed elevation): GPS rows with a full position, and radar/theodolite rows
-    with range, azimuth and elevation. Where fewer than two such rows exist, rows with range
-    and azimuth but no elevation (a 2-D radar: a navigation radar's or a lidar's plots) are
-    taken in the sensor's horizontal plane (elevation 0 ± :data:`PLANE_ELEVATION_SIGMA`):
-    a start that the measured range and azimuth then correct, the height staying as uncertain
-    as the assumption makes it.
+    accuracy used as the fit weight; without the height of an assumed elevation): GPS rows
+    with a full position, and radar/theodolite rows with range, azimuth and elevation.
+    Where fewer than two such rows exist, rows with range and azimuth but no elevation (a 2-D
+    radar: a navigation radar's or a lidar's plots) are taken in the sensor's horizontal
+    plane (elevation 0 ± :data:`PLANE_ELEVATION_SIGMA`): a start that the measured range and
+    azimuth then correct, the height staying as uncertain as the assumption makes it.
     """
     z = batch.z
     cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
@@ -180,7 +181,9 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         a = np.maximum(acc[take], 1e-3)
         robust, scale = _redescending_line(tt, pp, a, coef)
         off = np.linalg.norm(pp - A @ robust, axis=1)
-        gross = off / a > GROSS_START_SIGMAS
+        # gross: far off the line beyond its own accuracy and beyond the other fixes' spread
+        # about it (a line through a turning object misses them all by its robust scale)
+        gross = off > GROSS_START_SIGMAS * np.maximum(a, scale if scale is not None else 0.0)
         if scale is not None and gross.any():     # keep the gross fixes out of the gate too
             coef = robust
             sp = min(sp, max(scale, float(off[gross].min()) / START_GATE_SIGMAS))
