@@ -3,7 +3,8 @@
 1. **Segments** (``tracking.segments``, ``tracking.plots``, ``tracking.plot_tracker``): every
    radar/theodolite track is cut where it jumped to another object or paused. Plots (rows
    without ``track_id``, in any order) go through the plot tracker (clutter is left out; plots
-   without range cannot be tracked alone, step 6 takes them); rows without ``track_id`` of an
+   without range cannot be tracked alone, step 6 takes them; a plot track is cut where it
+   jumped across missed scans, ``tracking.plot_jumps``); rows without ``track_id`` of an
    instrument that follows one object at a time are segmented as one track.
 2. **Anchored objects**: each declared target carrying GPS (or MISTRAM) starts as the
    trajectory of those rows alone: they name the object (DATA_CONTRACT: GPS and MISTRAM
@@ -76,6 +77,7 @@ from rangeproc.tracking.objects import (
 )
 from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
+from rangeproc.tracking.plot_jumps import cut_jumps
 from rangeproc.tracking.plot_tails import stray_tails
 from rangeproc.tracking.clutter_map import neighbour_share, stationary_returns
 from rangeproc.tracking.plot_tracker import (GATE_PROBABILITY, SEVERAL_RETURNS_SHARE,
@@ -192,7 +194,8 @@ def sensor_segments(sensor: int, rows: SensorRows
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
                                  track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
                                              planar, timing.stamp_sigma))
-            label = stray_tails(timing.clock, label)
+            label = cut_jumps(rows.t[ranged], p, R, timing.clock,
+                              stray_tails(timing.clock, label), timing.stamp_sigma)
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, timing.scan[label == k])

@@ -3,6 +3,8 @@ object (``objects.same_sensor_conflict``); the several-objects benchmark kind ``
 keeps every object one object."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 
@@ -70,3 +72,47 @@ def test_the_benchmark_scene_keeps_every_object_one_object(tmp_path) -> None:
     multi = evaluate_run(tmp_path / "out", tmp_path / "truth.csv")["multi"]
     assert all(m["swaps"] == 0 for m in multi["truth"].values())
     assert len(multi["fused"]) == len(multi["truth"])
+
+
+def _surveillance_window(src, dst, start: float, end: float) -> None:
+    """``dst``: scene ``src`` reduced to its surveillance radar SR1 between ``start`` and
+    ``end`` s from the truth's first epoch (no targets declared), with its truth."""
+    text = (src / "scenario.toml").read_text()
+    head, *blocks = re.split(r"(?m)^(?=\[\[(?:sensors|targets)\]\])", text)
+    sr1 = [b for b in blocks if b.startswith("[[sensors]]") and 'id = "SR1"' in b]
+    dst.mkdir()
+    (dst / "scenario.toml").write_text(head + "".join(sr1))
+    truth = pd.read_csv(src / "truth.csv")
+    t0 = float(truth.time.min())
+    plots = pd.read_csv(src / "SR1.csv", dtype=str, keep_default_na=False)
+    t = plots.time.astype(float) - t0
+    keep = np.flatnonzero((t >= start) & (t <= end))
+    plots.iloc[keep].to_csv(dst / "SR1.csv", index=False)
+    true = pd.read_csv(src / "truth_association.csv", keep_default_na=False)
+    true = true[true.sensor == "SR1"].set_index("row").loc[keep].reset_index(drop=True)
+    true.insert(1, "row", np.arange(keep.size))
+    true.to_csv(dst / "truth_association.csv", index=False)
+    near = (truth.time - t0 >= start - 5.0) & (truth.time - t0 <= end + 5.0)
+    truth[near].to_csv(dst / "truth.csv", index=False)
+
+
+def test_a_plot_track_that_coasted_onto_another_object_is_cut(tmp_path) -> None:
+    """scale, seed 1, 600 s, SR1's plots alone over 60-220 s: SR1's track of U2 lost it at
+    126 s, coasted 4 scans and took U6 3.4 km away at 142 s (U6's own track had lost it in
+    a hard turn), then followed U6. As one segment it was one object holding U2's plots
+    before the gap and U6's after (purity 0.58). Cut where its first plot after the coast
+    left the cruise model's gate (``tracking.plot_jumps``), each piece goes to the object it
+    continues."""
+    src = tmp_path / "scene"
+    simulate_multi(src, kind="scale", seed=1, duration=600.0)
+    _surveillance_window(src, tmp_path / "window", 60.0, 220.0)
+    run(tmp_path / "window" / "scenario.toml")
+    got = pd.read_parquet(tmp_path / "window" / "out" / "association.parquet")
+    true = pd.read_csv(tmp_path / "window" / "truth_association.csv", keep_default_na=False)
+    both = got.merge(true.rename(columns={"target_id": "true"})[["sensor", "row", "true"]],
+                     on=["sensor", "row"])
+    both = both[(both.target_id.fillna("") != "") & (both.true != "")]
+    purity = {k: g.true.value_counts().iloc[0] / len(g) for k, g in both.groupby("target_id")}
+    assert len(purity) >= 8                              # the window's objects are found
+    assert min(purity.values()) >= 0.95, purity
+    assert _split_objects(tmp_path / "window") == {}
