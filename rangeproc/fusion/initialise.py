@@ -74,14 +74,6 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     a start that the measured range and azimuth then correct, the height staying as uncertain
     as the assumption makes it.
     """
-    rows, is_cart, is_plane = fix_rows(batch)
-    return (rows, *fixes_at(batch, rows, is_cart, is_plane))
-
-
-def fix_rows(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rows of :func:`position_fixes` (M,) ascending, without their positions: and of
-    each whether it is a Cartesian row (M,) bool and a 2-D radar's row taken in the plane
-    (M,) bool."""
     z = batch.z
     cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
     sph = (batch.model == SPHERICAL) & np.isfinite(z[:, :3]).all(axis=1)
@@ -90,16 +82,10 @@ def fix_rows(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarra
         plane = ((batch.model == SPHERICAL) & np.isfinite(z[:, :2]).all(axis=1)
                  & ~np.isfinite(z[:, 2]))
     rows = np.flatnonzero(cart | sph | plane)
-    return rows, cart[rows], plane[rows]
-
-
-def fixes_at(batch: MeasurementBatch, rows: np.ndarray, is_cart: np.ndarray,
-             is_plane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The positions (M, 3) range ENU m and accuracies (M,) m of the fix rows ``rows`` of
-    :func:`fix_rows` (any subset of them, with their flags): each row's on its own."""
-    z = batch.z
     local = np.empty((len(rows), 3))
     zc = z[rows].copy()
+    is_cart = cart[rows]
+    is_plane = plane[rows]
     zc[is_plane, 2] = 0.0
     local[is_cart] = zc[is_cart, :3]
     r, az, el = zc[~is_cart, 0], zc[~is_cart, 1], zc[~is_cart, 2]
@@ -112,7 +98,7 @@ def fixes_at(batch: MeasurementBatch, rows: np.ndarray, is_cart: np.ndarray,
     acc = np.where(is_cart, np.sqrt(sig[:, 0] ** 2 + sig[:, 1] ** 2 + sig[:, 2] ** 2),
                    np.sqrt(sig[:, 0] ** 2 + (zc[:, 0] * sig[:, 1]) ** 2
                            + (zc[:, 0] * sig[:, 2]) ** 2))
-    return pos, acc
+    return rows, pos, acc
 
 
 def _redescending_line(t: np.ndarray, p: np.ndarray, acc: np.ndarray, fallback: np.ndarray
@@ -154,7 +140,7 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     point among the first fixes does not bias the start. Raises DataError when no sensor
     gives position fixes (angle-only or range-rate-only data cannot start a track alone).
     """
-    rows, is_cart, is_plane = fix_rows(batch)      # positions below: only those taken
+    rows, pos, acc = position_fixes(batch)
     if len(rows) < 2:
         present = sorted({batch.sensor_ids[i] for i in np.unique(batch.sensor)})
         raise NoPositionFix(f"cannot initialise the track: no position fixes from sensors "
@@ -165,8 +151,8 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     if take.sum() < n_min:
         take = np.arange(len(t)) < n_min
     tt = t[take] - t0
-    pp, acc = fixes_at(batch, rows[take], is_cart[take], is_plane[take])
-    w = 1.0 / np.maximum(acc, 1e-3) ** 2
+    pp = pos[take]
+    w = 1.0 / np.maximum(acc[take], 1e-3) ** 2
     A = np.column_stack([np.ones_like(tt), tt])
     coef = np.zeros((2, 3))
     for _ in range(10):
@@ -174,16 +160,16 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         coef = np.linalg.lstsq(Aw, pp * np.sqrt(w)[:, None], rcond=None)[0]
         resid = np.linalg.norm(pp - A @ coef, axis=1) * np.sqrt(w)
         huber = np.where(resid <= 2.0, 1.0, 2.0 / np.maximum(resid, 1e-12))
-        w = huber / np.maximum(acc, 1e-3) ** 2
-    spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc, 1e-3)
+        w = huber / np.maximum(acc[take], 1e-3) ** 2
+    spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc[take], 1e-3)
     if len(tt) >= 3 and spread.max() > GROSS_START_SIGMAS:
-        coef = _redescending_line(tt, pp, np.maximum(acc, 1e-3), coef)
+        coef = _redescending_line(tt, pp, np.maximum(acc[take], 1e-3), coef)
     x0 = np.zeros(n_state)
     x0[0:3] = coef[0]
     x0[3:6] = coef[1] if len(tt) > 1 and np.ptp(tt) > 0 else 0.0
     P0 = np.zeros((n_state, n_state))
     sp, sv, sa = PRIOR_SIGMA
-    P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc)) ** 2
+    P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc[take])) ** 2
     P0[np.arange(3, 6), np.arange(3, 6)] = sv ** 2
     P0[np.arange(6, 9), np.arange(6, 9)] = sa ** 2
     return x0, P0
