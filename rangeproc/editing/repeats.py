@@ -50,13 +50,18 @@ def duplicate_rows(log: SensorLog) -> np.ndarray:
     out = np.zeros(n, dtype=bool)
     if n < 2:
         return out
+    stamp = np.where(np.isnan(log.time), np.inf, log.time)
+    if (stamp[1:] > stamp[:-1]).all():                   # no stamp twice: no duplicate
+        return out
+    ts = np.sort(stamp)
+    at = np.flatnonzero(np.isin(stamp, ts[1:][ts[1:] == ts[:-1]]))   # rows of shared stamps
     keys = [log.time, *log.columns.values()]
     keys += [a.astype(float) for a in (log.track_id, log.station) if a is not None]
-    table = np.column_stack([np.where(np.isnan(k), np.inf, k) for k in keys])
-    order = np.lexsort((log.row, *table.T[::-1]))         # by every value, then file order
-    same = np.zeros(n, dtype=bool)
+    table = np.column_stack([np.where(np.isnan(k[at]), np.inf, k[at]) for k in keys])
+    order = np.lexsort((log.row[at], *table.T[::-1]))     # by every value, then file order
+    same = np.zeros(len(at), dtype=bool)
     same[1:] = (table[order][1:] == table[order][:-1]).all(axis=1)
-    out[order[same]] = True
+    out[at[order[same]]] = True
     return out
 
 

@@ -28,8 +28,8 @@ def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
     (``rangeproc.parallel.row_chunks``), with the same values.
     """
     N = meas_epoch.shape[0]
-    res = np.full((N, N_COMPONENTS), np.nan)
-    hph = np.full((N, N_COMPONENTS), np.nan)
+    res = np.empty((N, N_COMPONENTS))    # every entry written by the kernel (NaN where
+    hph = np.empty((N, N_COMPONENTS))    # not measured), in the row chunks' threads
     thread_map(lambda r: _residuals_into(meas_epoch[r], model[r], z[r], s[r], sv[r], Qr[r],
                                          xs, Ps, res[r], hph[r]), row_chunks(N))
     return res, hph
@@ -40,7 +40,7 @@ def _residuals_into(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                     s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, xs: np.ndarray,
                     Ps: np.ndarray, res: np.ndarray, hph: np.ndarray) -> None:
     """:func:`smoothed_residuals` of the given rows, written into ``res`` and ``hph`` (N, 6)
-    (filled with NaN by the caller)."""
+    (NaN where not measured)."""
     N = meas_epoch.shape[0]
     n = xs.shape[1]
     h = np.empty(N_COMPONENTS)
@@ -65,3 +65,6 @@ def _residuals_into(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
                         for b in range(N_OBSERVED):
                             acc += ha * P[a, b] * H[c, b]
                 hph[i, c] = acc
+            else:
+                res[i, c] = np.nan
+                hph[i, c] = np.nan

@@ -44,9 +44,11 @@ def _row_sigma(result: FusionResult) -> np.ndarray:
     sigma the final pass used."""
     b = result.batch
     sigma = b.sigma.copy()
-    for (sensor, comp), value in result.noise.items():
-        if np.isfinite(value) and value > 0.0:
-            sigma[b.sensor == sensor, comp] = value
+    for sensor in dict.fromkeys(s for s, _ in result.noise):   # one row mask per sensor
+        at = b.sensor == sensor
+        for (s, comp), value in result.noise.items():
+            if s == sensor and np.isfinite(value) and value > 0.0:
+                sigma[at, comp] = value
     return sigma
 
 

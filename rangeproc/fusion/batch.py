@@ -124,13 +124,13 @@ def merge(parts: list[tuple[int, SensorRows]], sensor_ids: tuple[str, ...]) -> M
     t = np.concatenate([p.t for _, p in parts])
     order = np.argsort(t, kind="stable")
 
-    def cat(name: str) -> np.ndarray:
-        return np.ascontiguousarray(np.concatenate([getattr(p, name) for _, p in parts])[order])
+    def cat(name: str) -> np.ndarray:       # np.take: the row gather, faster than [order]
+        return np.take(np.concatenate([getattr(p, name) for _, p in parts]), order, axis=0)
 
-    sensor = np.concatenate([np.full(len(p.t), i, dtype=np.int64) for i, p in parts])[order]
+    sensor = np.concatenate([np.full(len(p.t), i, dtype=np.int64) for i, p in parts])
     return MeasurementBatch(
-        t=np.ascontiguousarray(t[order]), model=cat("model"), z=cat("z"), sigma=cat("sigma"),
-        s=cat("s"), sv=cat("sv"), Qr=cat("Qr"), sensor=np.ascontiguousarray(sensor),
+        t=np.take(t, order), model=cat("model"), z=cat("z"), sigma=cat("sigma"),
+        s=cat("s"), sv=cat("sv"), Qr=cat("Qr"), sensor=np.take(sensor, order),
         source_row=cat("source_row"), station=cat("station"), track=cat("track"),
         sensor_ids=sensor_ids)
 

@@ -275,6 +275,7 @@ def fuse_span(batch: MeasurementBatch, rate_hz: float,
         start = _FirstPass(batch, full, work, q, first_pass, first)
         batch, full, work, q, first_pass, first = _white_or_discounted(start, grid_t, x0, P0,
                                                                        gate, settings)
+        del start       # it holds the white pass: let it go with ``first`` below
     if "norm-constraint" in family.family.adds and rho is None:
         rho = estimate_norm(first.xs[work.grid][:, 6:9])
         log.info("askf: maneuver norm %s", "not usable (unconstrained)" if rho is None

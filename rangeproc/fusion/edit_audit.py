@@ -62,15 +62,15 @@ def down_weight_expected(result: FusionResult, sensor_index: int) -> float:
     if result.down_weight is None:
         return 0.0
     b = result.batch
-    rows = b.sensor == sensor_index
+    at = np.flatnonzero(b.sensor == sensor_index)      # the sensor's rows, in order
+    hph, used, down = result.hph[at], result.used[at], result.down_weight[at]
     total = 0.0
     for c in range(N_COMPONENTS):
         sigma = result.noise.get((sensor_index, c))
         if sigma is None or not np.isfinite(sigma) or sigma <= 0.0:
             continue
-        cand = (rows & result.used[:, c] & (result.down_weight[:, c] != BURST)
-                & np.isfinite(result.hph[:, c]))
-        spread = np.sqrt(np.maximum(sigma ** 2 - result.hph[cand, c],
+        cand = used[:, c] & (down[:, c] != BURST) & np.isfinite(hph[:, c])
+        spread = np.sqrt(np.maximum(sigma ** 2 - hph[cand, c],
                                     (MIN_SPREAD_FRACTION * sigma) ** 2))
         total += float(erfc(DOWN_WEIGHT_Z * sigma / (spread * math.sqrt(2.0))).sum())
     return total

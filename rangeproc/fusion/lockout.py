@@ -65,6 +65,9 @@ def locked_out(result: FusionResult, gate: np.ndarray) -> np.ndarray:
     sigma of plots far from a lost track (``fusion.noise``, Huber's rule), which would hide
     the loss."""
     b = result.batch
+    sparse = sparse_sensors(b.sensor, b.t)
+    if not sparse:          # no plots (instrumented objects): nothing can be locked out
+        return np.zeros(len(b), dtype=bool)
     sig = b.sigma.copy()
     for (sensor, c), value in result.noise.items():
         if value > 0.0:
@@ -73,8 +76,7 @@ def locked_out(result: FusionResult, gate: np.ndarray) -> np.ndarray:
     u = np.where(have, result.res / np.where(have, sig, 1.0), 0.0)
     chi2 = np.sum(u * u, axis=1)
     m = np.clip(have.sum(axis=1), 0, gate.size - 1)
-    sparse = np.isin(b.sensor, sparse_sensors(b.sensor, b.t))
-    return sparse & (m > 0) & (chi2 > gate[m])
+    return np.isin(b.sensor, sparse) & (m > 0) & (chi2 > gate[m])
 
 
 def missed_from(result: FusionResult, gate: np.ndarray, t: float) -> int:

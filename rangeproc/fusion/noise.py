@@ -107,34 +107,36 @@ def residual_sigma(batch: MeasurementBatch, res: np.ndarray, hph: np.ndarray,
     found: dict[tuple[int, int], float] = {}
     for sensor in np.unique(batch.sensor):
         rows = np.flatnonzero(batch.sensor == sensor)
+        # the sensor's rows gathered once (its components are then column views)
+        res_s, hph_s, used_s, t_s = res[rows], hph[rows], used[rows], batch.t[rows]
         for c in range(N_COMPONENTS):
-            r = res[rows, c]
+            r, h = res_s[:, c], hph_s[:, c]
             have = np.isfinite(r)
-            used_c = have & used[rows, c]
+            used_c = have & used_s[:, c]
             if used_c.sum() < MIN_ROWS:
                 continue
             ru = r[used_c]
             robust = float(np.sqrt(max(
                 (MAD_TO_SIGMA * np.median(np.abs(ru - np.median(ru)))) ** 2
-                + np.median(hph[rows[used_c], c]), 0.0)))
+                + np.median(h[used_c]), 0.0)))
             sig = np.full(len(rows), robust)
             idx = np.flatnonzero(have)
             burst = np.zeros(len(rows), dtype=bool)
             if len(idx) >= window:
                 local = MAD_TO_SIGMA * median_filter(np.abs(r[idx]), size=window, mode="nearest")
-                local = np.sqrt(np.maximum(local ** 2 + hph[rows[idx], c], 0.0))
+                local = np.sqrt(np.maximum(local ** 2 + h[idx], 0.0))
                 local = np.where(local > burst_ratio * robust, local, 0.0)
                 # dilate by a quarter window: enough to cover the edge rows a centred running
                 # median misses, without spreading burst sigmas far onto normal rows
                 local = maximum_filter1d(local, size=max(1, window // 4), mode="nearest")
                 burst[idx] = local > 0.0
                 sig[idx[local > 0.0]] = local[local > 0.0]
-            glob = _clipped_rms(r, hph[rows, c], used_c & ~burst, robust)
+            glob = _clipped_rms(r, h, used_c & ~burst, robust)
             found[(int(sensor), c)] = glob
             sig[~burst] = glob
             u = np.abs(np.nan_to_num(r)) / sig
             sig = sig * np.sqrt(np.maximum(1.0, u / huber_k))
-            rho = lag_correlation(batch.t[rows], r / sig, used_c & ~burst & (u < _CLIP))
+            rho = lag_correlation(t_s, r / sig, used_c & ~burst & (u < _CLIP))
             sigma[rows, c] = sig * correlation_discount(rho)
             why[rows[burst], c] = BURST
             why[rows[~burst & (u > huber_k)], c] = HUBER

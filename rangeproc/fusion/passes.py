@@ -44,7 +44,11 @@ IMM_PRUNE = 5e-2
 IMM_START_WIDENING = 10.0
 def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
     """(N, 6) bool: component measured and not rejected by the gate (bit mask ``rejected``)."""
-    bits = (rejected[:, None] >> np.arange(z.shape[1])[None, :]) & 1
+    m = z.shape[1]
+    if m <= 8:                 # the bits tested are the low byte's (a cast keeps it): bytes
+        low = rejected.astype(np.uint8)[:, None]
+        return np.isfinite(z) & ((low & (np.uint8(1) << np.arange(m, dtype=np.uint8))) == 0)
+    bits = (rejected[:, None] >> np.arange(m)[None, :]) & 1
     return np.isfinite(z) & (bits == 0)
 
 

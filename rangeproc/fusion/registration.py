@@ -222,10 +222,11 @@ def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: b
     (a bias still in them): only values far from their sensor component's median are left
     out, at the stated sigmas."""
     w = np.zeros(r.shape)
-    for rows in groups:                  # one component of one sensor at a time: (n,) copies
+    for rows in groups:                  # one component of one sensor at a time
+        r_s, base_s = r[rows], base[rows]          # the sensor's rows gathered once
         for c in range(r.shape[1]):
-            sc = base[rows, c]
-            u = r[rows, c] / sc
+            sc = base_s[:, c]
+            u = r_s[:, c] / sc
             have = np.isfinite(u) & (sc > 0)
             if np.count_nonzero(have) < 3:
                 continue

@@ -58,19 +58,19 @@ def _component_stats(use: ObjectUse
     """Per measured component of the sensor in one object: (unit, estimated sigma or None,
     the used residuals (K,), their lag-1 correlation)."""
     res, i = use.result, use.index
-    rows = res.batch.sensor == i
-    model = int(res.batch.model[rows][0])
+    at = np.flatnonzero(res.batch.sensor == i)       # the sensor's rows, in time order
+    model = int(res.batch.model[at[0]])
     names, units = COMPONENTS[model]
+    t, z, r = res.batch.t[at], res.batch.z[at], res.res[at]
     out = {}
     for c, (name, unit) in enumerate(zip(names, units)):
-        if not np.isfinite(res.batch.z[rows, c]).any():
+        if not np.isfinite(z[:, c]).any():
             continue
-        used = rows & res.used[:, c] & np.isfinite(res.res[:, c])
-        at = np.flatnonzero(rows)
+        used = res.used[at, c] & np.isfinite(r[:, c])
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = res.res[at, c] / res.batch.sigma[at, c]
-        rho = lag_correlation(res.batch.t[at], u, used[at])
-        out[name] = (unit, res.noise.get((i, c)), res.res[used, c], rho)
+            u = r[:, c] / res.batch.sigma[at, c]
+        rho = lag_correlation(t, u, used)
+        out[name] = (unit, res.noise.get((i, c)), r[used, c], rho)
     return out
 
 

@@ -138,14 +138,15 @@ class Expanded(NamedTuple):
                   rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Residuals and explained variance (R, 6) of ``rows`` (indices; None: all) of the full
         ``batch`` at this track, computed in blocks of :data:`BLOCK_ROWS` rows."""
-        rows = np.arange(len(batch)) if rows is None else np.asarray(rows)
-        res = np.empty((len(rows), 6))
-        hph = np.empty((len(rows), 6))
-        for lo in range(0, len(rows), BLOCK_ROWS):
-            r = rows[lo:lo + BLOCK_ROWS]
+        n = len(batch) if rows is None else len(rows)
+        res = np.empty((n, 6))
+        hph = np.empty((n, 6))
+        for lo in range(0, n, BLOCK_ROWS):     # every row: slices (views), not row copies
+            r = slice(lo, min(lo + BLOCK_ROWS, n)) if rows is None \
+                else np.asarray(rows)[lo:lo + BLOCK_ROWS]
             e = meas_epoch[r]
-            res[lo:lo + len(r)], hph[lo:lo + len(r)] = smoothed_residuals(
-                np.arange(len(r), dtype=np.int64), batch.model[r], batch.z[r], batch.s[r],
+            res[lo:lo + len(e)], hph[lo:lo + len(e)] = smoothed_residuals(
+                np.arange(len(e), dtype=np.int64), batch.model[r], batch.z[r], batch.s[r],
                 batch.sv[r], batch.Qr[r], np.ascontiguousarray(self.xs[e]),
                 np.ascontiguousarray(self.Ps[self.ps_epoch[e]]))
         return res, hph
@@ -217,8 +218,11 @@ def carry_to_every_row(full: PassRows, thin: PassRows, out: PassResult, q_used: 
                              rate if rate is not None else np.zeros((len(b), 4)))
     res, hph = expanded.residuals(b, full.meas_epoch)
     sigma = b.sigma.copy()
-    for (sensor, c), value in noise.items():
-        sigma[b.sensor == sensor, c] = value
+    for sensor in dict.fromkeys(s for s, _ in noise):     # one row mask per sensor
+        at = b.sensor == sensor
+        for (s, c), value in noise.items():
+            if s == sensor:
+                sigma[at, c] = value
     used = gate_use(res, hph, sigma, float(gate[1]))
     used[thin.kept] = out.used
     hph[independent_rows(len(b), thin.kept)] *= -1.0   # not in the thinned smoother's data

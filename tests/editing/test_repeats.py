@@ -114,3 +114,35 @@ def test_repeated_stamps_of_a_track_are_dropped_per_track():
     rec = EditRecord()
     out = drop_repeats(_log(t, [1.0, 2.0, 3.0, 4.0, 5.0], track=[1, 2, 1, 1, 2]), rec)
     assert rec.counts("R1") == {"repeated stamp": 1} and len(out) == 4
+
+
+def _duplicates_by_full_sort(log: SensorLog) -> np.ndarray:
+    """The rule by one lexsort of every row (what ``duplicate_rows`` narrows to the rows
+    of shared stamps): rows equal in stamp and every value to an earlier file row."""
+    keys = [log.time, *log.columns.values()]
+    keys += [a.astype(float) for a in (log.track_id, log.station) if a is not None]
+    table = np.column_stack([np.where(np.isnan(k), np.inf, k) for k in keys])
+    order = np.lexsort((log.row, *table.T[::-1]))
+    same = np.zeros(len(log), dtype=bool)
+    same[1:] = (table[order][1:] == table[order][:-1]).all(axis=1)
+    out = np.zeros(len(log), dtype=bool)
+    out[order[same]] = True
+    return out
+
+
+def test_duplicates_found_on_shared_stamps_only_are_those_of_the_full_sort():
+    rng = np.random.default_rng(7)
+    for trial in range(20):
+        n = 400
+        t = np.round(rng.uniform(0.0, 30.0, n), 1)          # many shared stamps
+        r = np.round(rng.uniform(0.0, 3.0, n))               # equal values now and then
+        r[rng.random(n) < 0.05] = np.nan
+        if trial % 3 == 0:
+            t[rng.random(n) < 0.03] = np.nan                 # stamps unread
+        track = rng.integers(0, 3, n) if trial % 2 else None
+        log = _log(t, r, track=track)
+        expected = _duplicates_by_full_sort(log)
+        got = duplicate_rows(log)
+        assert expected.any() and np.array_equal(got, expected)
+    t, r = _track(50)                                        # increasing stamps: none
+    assert not duplicate_rows(_log(t, r)).any()

@@ -2,13 +2,15 @@
 between two scans is estimated again from the plots after the turn instead of being lost."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from rangeproc.fusion.batch import MeasurementBatch, SensorRows, empty_rows, merge
 from rangeproc.fusion.centralised import fuse_target, gate_thresholds
 from rangeproc.fusion.estimator_types import EstimatorSettings
-from rangeproc.fusion.lockout import SPARSE_STEP_S, lockout_time, sparse_sensors
+from rangeproc.fusion.lockout import SPARSE_STEP_S, locked_out, lockout_time, sparse_sensors
 from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 
 SPEED = 250.0            # m/s
@@ -100,3 +102,21 @@ def test_plots_missed_while_a_dense_sensor_measures_the_object_cut_nothing() -> 
     result = fuse_target(both, 1.0, EstimatorSettings())
     assert len(result.spans) == 1
     assert lockout_time(result, gate_thresholds(0.9999)) is None
+
+
+def test_an_object_without_plots_is_not_checked_for_lock_outs() -> None:
+    # a tracking radar at 10 Hz (no sparse sensor): nothing can be locked out, so neither
+    # the residuals nor the noise are read (they cost a pass over every row of a long
+    # instrumented sortie); a scanning radar's plots are read
+    t = np.arange(0.0, 60.0, 0.1)
+    a = empty_rows(t.size, CARTESIAN)
+    a["z"][:, :3] = 1000.0
+    rows = SensorRows(t=t, source_row=np.arange(t.size), station=np.full(t.size, -1),
+                      track=np.full(t.size, -1), **a)
+    dense = merge([(0, rows)], ("R1",))
+    unread = SimpleNamespace(batch=dense, res=None, noise=None)
+    gate = gate_thresholds(0.999)
+    assert not locked_out(unread, gate).any() and lockout_time(unread, gate) is None
+    plots, _ = radar_plots(1, turn_at=None)
+    with pytest.raises((TypeError, AttributeError)):
+        locked_out(SimpleNamespace(batch=plots, res=None, noise=None), gate)

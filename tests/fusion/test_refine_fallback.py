@@ -69,3 +69,31 @@ def test_without_a_failure_each_pass_runs_once(monkeypatch):
                     EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
     assert len(calls) == 3
     np.testing.assert_array_equal(res.xs, calls[-1].xs)
+
+
+def test_the_first_pass_is_let_go_while_the_refinement_runs(monkeypatch):
+    # the first pass's covariances (the largest arrays of a span that is not thinned) are
+    # not held while the refinement passes run: nothing keeps them once the first refinement
+    # has its inputs (the white-or-discounted check must not hold them either)
+    import gc
+    import weakref
+    first_ps: list = []
+    alive_in_refinement: list[bool] = []
+    real = centralised.run_pass
+
+    def first_spy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        first_ps.append(weakref.ref(out.Ps))
+        return out
+
+    def refinement_spy(*args, **kwargs):
+        gc.collect()
+        alive_in_refinement.append(first_ps[0]() is not None)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(centralised, "run_pass", first_spy)
+    monkeypatch.setattr(refinement, "run_pass", refinement_spy)
+    settings = EstimatorSettings(processing=ProcessingSettings(noise_passes=2))
+    assert settings.discount_first_pass and settings.processing.adapt_noise
+    fuse_span(_gps_batch(3), 2.0, settings)
+    assert len(first_ps) == 1 and alive_in_refinement == [False, False]
