@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 
 from rangeproc.estimation.moments import LIN_NOISE_SHARE, cross_moments
-from rangeproc.estimation.update import specialise_update
+from rangeproc.estimation.update import LOG_2PI, specialise_update
 from rangeproc.models.measurement import (
     AZIMUTH,
     CARTESIAN,
@@ -52,12 +52,14 @@ NP = 3
 @njit(cache=True, nogil=True, error_model="numpy")
 def fast_workspace():
     """Work arrays of the fast path, ``(idx, sel, sig_row, sig, y, yw, sdiag, C, Z, Hs, S, HP,
-    Kt, AP, APHt)``: index and sigma vectors (3,), innovations (3,), ``C``, ``HP``, ``Kt``
-    (3, 9), ``Z``, ``Hs``, ``S`` (3, 3), ``AP`` (9, 9), ``APHt`` (9, 3)."""
+    Kt, AP, APHt, winv, dinv)``: index and sigma vectors (3,), innovations (3,), ``C``,
+    ``HP``, ``Kt`` (3, 9), ``Z``, ``Hs``, ``S`` (3, 3), ``AP`` (9, 9), ``APHt`` (9, 3), and
+    :func:`whole_row`'s reciprocals ``winv``, ``dinv`` (6,)."""
     return (np.empty(NP, dtype=np.int64), np.empty(NP, dtype=np.int64), np.empty(NP),
             np.empty(NP), np.empty(NP), np.empty(NP), np.empty(NP), np.empty((NP, N)),
             np.empty((NP, NP)), np.empty((NP, NP)), np.empty((NP, NP)), np.empty((NP, N)),
-            np.empty((NP, N)), np.empty((N, N)), np.empty((N, NP)))
+            np.empty((NP, N)), np.empty((N, N)), np.empty((N, NP)), np.empty(N_COMPONENTS),
+            np.empty(N_COMPONENTS))
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -177,5 +179,156 @@ def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, Qr:
 
 #: The gated update of a fast-path row: ``update.update_row``'s source compiled at n = 9 with
 #: the Jacobian in the position columns and no Sage-Husa statistics, inlined (the same
-#: operations in the same order); returns ``(nis, accepted, n_accepted, mask, loglik)``.
+#: operations in the same order); returns ``(nis, accepted, n_accepted, mask, loglik)``. The
+#: fast path calls it for a row :func:`whole_row` rejects (its per-component re-gating).
 _, update = specialise_update(N, NP, "always", False)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def whole_row(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: np.ndarray,
+              m: int, x: np.ndarray, P: np.ndarray, gate: np.ndarray, joseph: bool,
+              yw: np.ndarray, winv: np.ndarray, HP: np.ndarray, S: np.ndarray,
+              dinv: np.ndarray, Kt: np.ndarray, AP: np.ndarray, APHt: np.ndarray):
+    """The whole-row gated update of a row's ``m`` components at n = 9: ``update``'s
+    arithmetic for a row whose chi-square passes the gate, fused into one body.
+
+    Moments as :func:`update` takes them (``y``, ``sig`` (m,), ``C`` = H P (m, 9), ``Z`` =
+    H P H^T, ``Hs`` the Jacobian's position columns (m, 3), needed when ``joseph``). Whitened
+    (``yw = y / sig``, ``HP = C / sig``, ``S = Z / (sig sig^T) + I``), Cholesky of ``S``,
+    chi-square ``yw^T S^-1 yw`` against ``gate[m]``; if it passes, gain ``K^T = S^-1 HP``,
+    ``x += K yw`` and the Joseph form ``(I - K H) P (I - K H)^T + K K^T`` (``joseph``) or
+    ``P - K HP``, symmetrised. The same floating-point operations in the same order as
+    ``update.specialise_update``'s ``gated``, each reciprocal (``1 / sig``, ``1 / L_ii``)
+    computed once instead of at every use: the same bits. Returns ``(nis, passed,
+    logdet_S)``; ``x``, ``P`` are untouched unless it passed (the caller then runs
+    :func:`update`, whose per-component re-gating starts from the same moments).
+    Work arrays: ``yw``, ``winv``, ``dinv`` (>= m,), ``S`` (m, m), ``HP``, ``Kt`` (m, 9),
+    ``AP`` (9, 9), ``APHt`` (9, m).
+    """
+    for a in range(m):                                   # whitening
+        inv = 1.0 / sig[a]
+        winv[a] = inv
+        yw[a] = y[a] * inv
+        for j in range(N):
+            HP[a, j] = C[a, j] * inv
+    for a in range(m):
+        for b in range(a + 1):
+            v = Z[a, b] / (sig[a] * sig[b])
+            S[a, b] = v
+            S[b, a] = v
+        S[a, a] += 1.0
+    for j in range(m):                                   # S = L L^T (linalg.cholesky_inplace)
+        d = S[j, j]
+        for k in range(j):
+            d -= S[j, k] * S[j, k]
+        if not d > 0.0:
+            return math.inf, False, 0.0
+        d = math.sqrt(d)
+        S[j, j] = d
+        for i in range(j + 1, m):
+            v = S[i, j]
+            for k in range(j):
+                v -= S[i, k] * S[j, k]
+            S[i, j] = v / d
+        dinv[j] = 1.0 / d
+    logdet = 0.0
+    for a in range(m):
+        logdet += 2.0 * math.log(S[a, a])
+    for i in range(m):                                   # nis = yw^T S^-1 yw
+        v = yw[i]
+        for k in range(i):
+            v -= S[i, k] * Kt[k, 0]
+        Kt[i, 0] = v * dinv[i]
+    for i in range(m - 1, -1, -1):
+        v = Kt[i, 0]
+        for k in range(i + 1, m):
+            v -= S[k, i] * Kt[k, 0]
+        Kt[i, 0] = v * dinv[i]
+    nis = 0.0
+    for a in range(m):
+        nis += yw[a] * Kt[a, 0]
+    if nis > gate[m]:
+        return nis, False, logdet
+    for i in range(m):                                   # K^T = S^-1 (H P): gain, eq. 8
+        for j in range(N):
+            Kt[i, j] = HP[i, j]
+        for k in range(i):
+            lik = S[i, k]
+            for j in range(N):
+                Kt[i, j] -= lik * Kt[k, j]
+        inv = dinv[i]
+        for j in range(N):
+            Kt[i, j] *= inv
+    for i in range(m - 1, -1, -1):
+        for k in range(i + 1, m):
+            lki = S[k, i]
+            for j in range(N):
+                Kt[i, j] -= lki * Kt[k, j]
+        inv = dinv[i]
+        for j in range(N):
+            Kt[i, j] *= inv
+    for j in range(N):                                   # x += K yw, eq. 10
+        acc = 0.0
+        for a in range(m):
+            acc += Kt[a, j] * yw[a]
+        x[j] += acc
+    if joseph:
+        for i in range(N):                               # Joseph form, eq. 9: A P = P - K H P
+            for j in range(N):
+                AP[i, j] = P[i, j]
+            for a in range(m):
+                kai = Kt[a, i]
+                for j in range(N):
+                    AP[i, j] -= kai * HP[a, j]
+        for i in range(N):                               # (A P) H^T, whitened rows of Hs
+            for a in range(m):
+                acc = 0.0
+                inv = winv[a]
+                for c in range(NP):
+                    acc += AP[i, c] * Hs[a, c] * inv
+                APHt[i, a] = acc
+        for i in range(N):                               # A P A^T + K K^T (R = I)
+            for j in range(N):
+                P[i, j] = AP[i, j]
+            for a in range(m):
+                u = Kt[a, i] - APHt[i, a]
+                for j in range(N):
+                    P[i, j] += u * Kt[a, j]
+    else:
+        for i in range(N):                               # P - K S K^T = P - K (H P)
+            for a in range(m):
+                kai = Kt[a, i]
+                for j in range(N):
+                    P[i, j] -= kai * HP[a, j]
+    for i in range(N):
+        for j in range(i):
+            v = 0.5 * (P[i, j] + P[j, i])
+            P[i, j] = v
+            P[j, i] = v
+    return nis, True, logdet
+
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def row_loglik(nis: float, logdet: float, m: int) -> float:
+    """The Gaussian log-likelihood term of a row whose ``m`` whitened components all passed
+    (``update.update_row``'s expression): ``-(nis + log det S + m log 2 pi) / 2``."""
+    return -0.5 * (nis + logdet + m * LOG_2PI)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def row_update(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
+               Hs: np.ndarray, idx: np.ndarray, m: int, x: np.ndarray, P: np.ndarray,
+               gate: np.ndarray, joseph: bool, sel: np.ndarray, sig: np.ndarray,
+               yw: np.ndarray, winv: np.ndarray, HP: np.ndarray, S: np.ndarray,
+               dinv: np.ndarray, Kt: np.ndarray, AP: np.ndarray, APHt: np.ndarray,
+               sdiag: np.ndarray, ew: np.ndarray, Sinv: np.ndarray):
+    """The fast path's gated update of one row: :func:`whole_row`, and for a row it rejects
+    :func:`update` (per-component re-gating; the same results as :func:`update` alone).
+    Returns ``(nis, accepted, n_accepted, mask, loglik)`` as ``update.update_row``."""
+    val, ok, logdet = whole_row(y, sig_row, C, Z, Hs, m, x, P, gate, joseph, yw, winv, HP, S,
+                                dinv, Kt, AP, APHt)
+    if ok:
+        return val, True, m, 0, row_loglik(val, logdet, m)
+    return update(y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, False, sel, sig, yw, HP,
+                  S, Kt, AP, APHt, sdiag, ew, Sinv)

@@ -155,7 +155,7 @@ def _specialise(family: Family, n_state: int) -> Callable:
          xsig) = row_workspace(n)
         sig_row = np.empty(N_COMPONENTS)
         (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt,
-         f_AP, f_APHt) = fu.fast_workspace()
+         f_AP, f_APHt, f_winv, f_dinv) = fu.fast_workspace()
         # --- the steps' own state, sized to nothing where the family does not add them
         G = n_series(sensor) * N_COMPONENTS
         window = max(int(par[SH_WINDOW]), 1) if ADAPTIVE else 1
@@ -242,14 +242,22 @@ def _specialise(family: Family, n_state: int) -> Callable:
                     if m >= 0:                           # the fast path took the row
                         dof[i] = m
                         if m > 0:
-                            val, ok, _, mask, ll_row = fu.update(
-                                f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate, True,
-                                False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
-                                f_sdiag, ew, Sinv)
-                            loglik = _record_row(i, val, mask, ll_row, loglik, nis, rejected,
-                                                ll_rows)
-                            _guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,
-                                      resets, reset_after, reset_inflation, P)
+                            val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, m, x,
+                                                       P, gate, True, f_yw, f_winv, f_HP, f_S,
+                                                       f_dinv, f_Kt, f_AP, f_APHt)
+                            if ok:                       # the whole row passed the gate
+                                loglik = _record_row(i, val, 0, fu.row_loglik(val, ld, m),
+                                                     loglik, nis, rejected, ll_rows)
+                                consecutive[sensor[i]] = 0   # the guard's count restarts
+                            else:                        # per-component re-gating
+                                val, ok, _, mask, ll_row = fu.update(
+                                    f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate,
+                                    True, False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP,
+                                    f_APHt, f_sdiag, ew, Sinv)
+                                loglik = _record_row(i, val, mask, ll_row, loglik, nis,
+                                                     rejected, ll_rows)
+                                _guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,
+                                           resets, reset_after, reset_inflation, P)
                         i += 1
                         continue
                 m = measured_components(z[i], sigma[i], idx, sig_row)
@@ -278,9 +286,9 @@ def _specialise(family: Family, n_state: int) -> Callable:
                                 sig_row[a] = min(max(sig_row[a], rms),
                                                  SPL_MAX_RATIO * sig_row[a])
                     if UFAST:                            # the fast path's update, P - K HP
-                        val, ok, n_acc, mask, ll_row = fu.update(
-                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, False, False, sel, sig,
-                            yw, HP, S, Kt, AP, APHt, sdiag, ew, Sinv)
+                        val, ok, n_acc, mask, ll_row = fu.row_update(
+                            y, sig_row, C, Z, Hs, idx, m, x, P, gate, False, sel, sig, yw,
+                            f_winv, HP, S, f_dinv, Kt, AP, APHt, sdiag, ew, Sinv)
                     else:
                         val, ok, n_acc, mask, ll_row = update_row(
                             y, sig_row, C, Z, Hs, idx, m, x, P, gate, joseph, ROW_NOISE, sel,

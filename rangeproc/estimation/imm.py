@@ -142,7 +142,7 @@ def _specialise(n_state: int) -> Callable:
          xsig) = row_workspace(n)
         sig_row = np.empty(N_COMPONENTS)
         (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt,
-         f_AP, f_APHt) = fu.fast_workspace()
+         f_AP, f_APHt, f_winv, f_dinv) = fu.fast_workspace()
         wmix = np.empty(r)
         ukf = np.zeros(3)
         use_lin = x_lin.shape[0] == E
@@ -202,10 +202,17 @@ def _specialise(n_state: int) -> Callable:
                                         PP[j], f_idx, f_sig_row, f_y, f_C, f_Z,
                                         f_Hs) if FAST else -1
                     if mf > 0:                                  # the fast path took the row
-                        val, ok, _, mask, ll_row = fu.update(
-                            f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, mf, X[j], PP[j], gate, True,
-                            False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt, f_sdiag, ew,
-                            Sinv)
+                        val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, mf, X[j],
+                                                   PP[j], gate, True, f_yw, f_winv, f_HP, f_S,
+                                                   f_dinv, f_Kt, f_AP, f_APHt)
+                        mask = 0
+                        if ok:                                  # the whole row passed
+                            ll_row = fu.row_loglik(val, ld, mf)
+                        else:                                   # per-component re-gating
+                            val, ok, _, mask, ll_row = fu.update(
+                                f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, mf, X[j], PP[j], gate,
+                                True, False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
+                                f_sdiag, ew, Sinv)
                     else:
                         for a in range(m):
                             sig_row[a] = sigma[i, idx[a]]

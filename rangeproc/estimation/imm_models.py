@@ -152,7 +152,11 @@ def switch_matrix(Lam: np.ndarray, dt: float, out: np.ndarray, work: np.ndarray)
 @njit(cache=True, error_model="numpy")
 def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
              T: np.ndarray) -> None:
-    """``x <- F x``, ``P <- F P F^T + Q`` (dense, in place; ``xt`` (n,), ``T`` (n, n) work)."""
+    """``x <- F x``, ``P <- F P F^T + Q`` (in place; ``xt`` (n,), ``T`` (n, n) work).
+
+    ``F`` is sparse (at most three non-zeros a row): each product adds the terms of its
+    non-zero entries only, in ascending order of the summed index, and runs its innermost
+    loop over contiguous columns (a branch per entry of F, not per term)."""
     n = x.shape[0]
     for i in range(n):
         acc = 0.0
@@ -163,19 +167,24 @@ def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt
         x[i] = xt[i]
     for i in range(n):                                     # T = F P
         for j in range(n):
-            acc = 0.0
-            for l in range(n):
-                if F[i, l] != 0.0:
-                    acc += F[i, l] * P[l, j]
-            T[i, j] = acc
-    for i in range(n):                                     # P = T F^T + Q
+            T[i, j] = 0.0
+        for l in range(n):
+            f = F[i, l]
+            if f != 0.0:
+                for j in range(n):
+                    T[i, j] += f * P[l, j]
+    for i in range(n):                                     # P = T F^T + Q (lower half)
         for j in range(i + 1):
-            acc = Q[i, j]
-            for l in range(n):
-                if F[j, l] != 0.0:
-                    acc += T[i, l] * F[j, l]
-            P[i, j] = acc
-            P[j, i] = acc
+            P[i, j] = Q[i, j]
+    for j in range(n):
+        for l in range(n):
+            f = F[j, l]
+            if f != 0.0:
+                for i in range(j, n):
+                    P[i, j] += T[i, l] * f
+    for i in range(n):
+        for j in range(i):
+            P[j, i] = P[i, j]
 
 
 @njit(cache=True, error_model="numpy")

@@ -19,6 +19,7 @@ _chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_
 _combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
 _model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
     model_matrices.py_func)
+_unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
 
 
 def _specialise(n_state: int) -> Callable:
@@ -46,8 +47,8 @@ def _specialise(n_state: int) -> Callable:
         swork = np.empty((2, r, r))
         last_dt = -1.0
         cbar = np.empty(r)
-        F = np.empty((n, n))
-        Qm = np.empty((n, n))
+        F = np.empty((r, n, n))                                 # each model's step
+        Qm = np.empty((r, n, n))
         Pf = np.empty((n, n))
         Ppred = np.empty((n, n))
         xpred = np.empty(n)
@@ -86,14 +87,19 @@ def _specialise(n_state: int) -> Callable:
                 for i in range(r):                              # negligible pairs and models
                     if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
                         W[j, i] = 0.0
+            for i in range(r):                                  # model i's step, once
+                for j in range(r):
+                    if W[j, i] != 0.0:
+                        _model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F[i],
+                                        Qm[i])
+                        break
             for j in range(r):
-                unpack(Pm[k, j], Pf)
+                _unpack(Pm[k, j], Pf)
                 for i in range(r):
                     if W[j, i] == 0.0:
                         continue
-                    _model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F, Qm)
-                    _pair_step(F, Qm, xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct, D, T,
-                               dx, Xp[j, i], Pp[j, i], N_STATE)
+                    _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct,
+                               D, T, dx, Xp[j, i], Pp[j, i], N_STATE)
             wsum = 0.0
             for j in range(r):
                 tot = 0.0
@@ -192,14 +198,17 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
                     FP[a, b] += f * P_f[l, b]
         x_pred[a] = acc
     for a in range(n):                                      # P_pred = FP F^T + Q
-        for b in range(a + 1):
-            acc = Q[a, b]
-            for l in range(n):
-                f = F[b, l]
-                if f != 0.0:
-                    acc += FP[a, l] * f
-            P_pred[a, b] = acc
-            P_pred[b, a] = acc
+        for b in range(a + 1):                              # (lower half; the terms of
+            P_pred[a, b] = Q[a, b]                          # each entry in ascending l)
+    for b in range(n):
+        for l in range(n):
+            f = F[b, l]
+            if f != 0.0:
+                for a in range(b, n):
+                    P_pred[a, b] += FP[a, l] * f
+    for a in range(n):
+        for b in range(a):
+            P_pred[b, a] = P_pred[a, b]
     for a in range(n):                                      # E = P_next - P_pred
         for b in range(n):
             E[a, b] = P_next[a, b] - P_pred[a, b]

@@ -112,9 +112,12 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     if in_place:
         xs = xf
         Ps = Pf
-    else:
-        xs = xf.copy()
-        Ps = Pf.copy()
+    else:                         # written from the last epoch back; filtered values read
+        xs = np.empty_like(xf)    # from xf, Pf (no copy of the history first)
+        Ps = np.empty_like(Pf)
+        if E > 0:
+            xs[E - 1] = xf[E - 1]
+            Ps[E - 1] = Pf[E - 1]
     em = np.zeros(E)
     P_f = np.empty((n, n))
     P_next = np.empty((n, n))
@@ -134,16 +137,16 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     k = E - 2
     while k >= 0:
         if fixed:                                      # it returns the step it leaves
-            k = _rts_fixed(epoch_t, xs, Ps, q_steps, want_em, jerk, em, k)
+            k = _rts_fixed(epoch_t, xf, Pf, xs, Ps, q_steps, want_em, jerk, em, k)
             if k < 0:
                 break
             unpack(Ps[k + 1], P_next)
         dt = epoch_t[k + 1] - epoch_t[k]
         q = q_steps[k + 1]
-        unpack(Ps[k], P_f)                             # still the filtered value at k
+        unpack(Pf[k], P_f)                             # the filtered value at k
         for i in range(n):
-            x_pred[i] = xs[k, i]
-            x_filt[i] = xs[k, i]
+            x_pred[i] = xf[k, i]
+            x_filt[i] = xf[k, i]
             for j in range(n):
                 P_pred[i, j] = P_f[i, j]
         predict_state(x_pred, dt)
@@ -236,11 +239,13 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _rts_fixed(epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray, q_steps: np.ndarray,
-               want_em: bool, jerk, em: np.ndarray, start: int) -> int:
+def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray,
+               Ps: np.ndarray, q_steps: np.ndarray, want_em: bool, jerk, em: np.ndarray,
+               start: int) -> int:
     """:func:`rts_smooth`'s steps for the 9-state CA model without fading, with the state
-    size a compile-time constant, in the textbook form (in place on ``xs``, ``Ps``, ``em``,
-    which hold the filtered values on entry; module docstring):
+    size a compile-time constant, in the textbook form (the filtered values read from ``xf``,
+    ``Pf``, the smoothed ones written to ``xs``, ``Ps``, which may be the same arrays, and
+    ``em``; module docstring):
 
         C_k^T = P_{k+1|k}^-1 F P_{k|k},   P_{k|N} = P_{k|k} + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T
 
@@ -265,9 +270,9 @@ def _rts_fixed(epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray, q_steps: np.
         dt = epoch_t[k + 1] - epoch_t[k]
         q = q_steps[k + 1]
         h2 = 0.5 * dt * dt
-        _unpack(Ps[k], P_f)
+        _unpack(Pf[k], P_f)
         for i in range(N):
-            x_pred[i] = xs[k, i]
+            x_pred[i] = xf[k, i]
         for a in range(3):                             # x_pred = F x_f (+ B S)
             x_pred[a] += dt * x_pred[3 + a] + h2 * x_pred[6 + a]
             x_pred[3 + a] += dt * x_pred[6 + a]
@@ -305,7 +310,7 @@ def _rts_fixed(epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray, q_steps: np.
         for i in range(N):
             dx[i] = xs[k + 1, i] - x_pred[i]
         for i in range(N):                             # xs = xf + C (xs_next - x_pred)
-            acc = xs[k, i]
+            acc = xf[k, i]
             for j in range(N):
                 acc += Ct[j, i] * dx[j]
             x_pred[i] = acc
@@ -340,7 +345,5 @@ def _rts_fixed(epoch_t: np.ndarray, xs: np.ndarray, Ps: np.ndarray, q_steps: np.
                     d -= jerk[k + 1, ax - 6] * dt
                 acc += d * d + P_next[ax, ax] + P_pred[ax, ax] - 2.0 * cross
             em[k + 1] = max(acc, 0.0) / 3.0
-        for i in range(N):                             # smoothed k becomes "next"
-            for j in range(N):
-                P_next[i, j] = P_pred[i, j]
+        P_next, P_pred = P_pred, P_next                # smoothed k becomes "next"
     return -1

@@ -106,6 +106,21 @@ def test_textbook_smoother_agrees_with_the_symmetric_form() -> None:
     assert np.array_equal(P_fast, np.swapaxes(P_fast, 1, 2))
 
 
+
+def test_the_smoother_into_fresh_arrays_leaves_the_filtered_history() -> None:
+    """``rts_smooth(in_place=False)`` reads the filtered values and writes new arrays: the
+    in-place result, bit for bit, with the inputs untouched (the rows reset the covariance,
+    so the textbook steps hand over to the symmetric form and back)."""
+    rows, prior = _rows()
+    fwd = run_filter(rows, prior, FilterSettings(GATE, reset_after=5, reset_inflation=100.0))
+    assert fwd.n_resets > 0
+    xf, Pf = fwd.xf.copy(), fwd.Pf.copy()
+    xs, Ps, em = rts_smooth(rows.epoch_t, xf, Pf, prior.q_steps)
+    assert np.array_equal(xf, fwd.xf) and np.array_equal(Pf, fwd.Pf)
+    xi, Pi, ei = rts_smooth(rows.epoch_t, xf, Pf, prior.q_steps, True, True)
+    assert np.array_equal(xs, xi) and np.array_equal(Ps, Pi) and np.array_equal(em, ei)
+    assert not np.array_equal(xf, fwd.xf)                  # negative control: in place
+
 def _general_at_nine(rows: FilterRows, prior: FilterPrior, settings: FilterSettings):
     """The forward pass of ``settings`` through the general row code at nine states: the
     spline filter's specialisation with an anomaly threshold that no epoch reaches, which
