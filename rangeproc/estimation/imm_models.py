@@ -149,14 +149,42 @@ def switch_matrix(Lam: np.ndarray, dt: float, out: np.ndarray, work: np.ndarray)
             out[i, j] /= acc
 
 
-@njit(cache=True, error_model="numpy")
-def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
-             T: np.ndarray) -> None:
-    """``x <- F x``, ``P <- F P F^T + Q`` (in place; ``xt`` (n,), ``T`` (n, n) work).
+@njit(cache=True, error_model="numpy", inline="always")
+def sparse_covariance(F: np.ndarray, Q: np.ndarray, P_in: np.ndarray, T: np.ndarray,
+                      P_out: np.ndarray, n: int) -> None:
+    """``T <- F P_in``, then ``P_out <- T F^T + Q`` (``P_out`` may be ``P_in``; all (n, n)).
 
     ``F`` is sparse (at most three non-zeros a row): each product adds the terms of its
     non-zero entries only, in ascending order of the summed index, and runs its innermost
-    loop over contiguous columns (a branch per entry of F, not per term)."""
+    loop over contiguous columns (a branch per entry of F, not per term). Inlined into the
+    IMM's prediction and Kim's pair step, so both predict the same bits."""
+    for i in range(n):                                     # T = F P_in
+        for j in range(n):
+            T[i, j] = 0.0
+        for l in range(n):
+            f = F[i, l]
+            if f != 0.0:
+                for j in range(n):
+                    T[i, j] += f * P_in[l, j]
+    for i in range(n):                                     # P_out = T F^T + Q (lower half)
+        for j in range(i + 1):
+            P_out[i, j] = Q[i, j]
+    for j in range(n):
+        for l in range(n):
+            f = F[j, l]
+            if f != 0.0:
+                for i in range(j, n):
+                    P_out[i, j] += T[i, l] * f
+    for i in range(n):
+        for j in range(i):
+            P_out[j, i] = P_out[i, j]
+
+
+@njit(cache=True, error_model="numpy")
+def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
+             T: np.ndarray) -> None:
+    """``x <- F x``, ``P <- F P F^T + Q`` (in place; ``xt`` (n,), ``T`` (n, n) work; the
+    covariance by :func:`sparse_covariance`)."""
     n = x.shape[0]
     for i in range(n):
         acc = 0.0
@@ -165,26 +193,7 @@ def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt
         xt[i] = acc
     for i in range(n):
         x[i] = xt[i]
-    for i in range(n):                                     # T = F P
-        for j in range(n):
-            T[i, j] = 0.0
-        for l in range(n):
-            f = F[i, l]
-            if f != 0.0:
-                for j in range(n):
-                    T[i, j] += f * P[l, j]
-    for i in range(n):                                     # P = T F^T + Q (lower half)
-        for j in range(i + 1):
-            P[i, j] = Q[i, j]
-    for j in range(n):
-        for l in range(n):
-            f = F[j, l]
-            if f != 0.0:
-                for i in range(j, n):
-                    P[i, j] += T[i, l] * f
-    for i in range(n):
-        for j in range(i):
-            P[j, i] = P[i, j]
+    sparse_covariance(F, Q, P, T, P, n)
 
 
 @njit(cache=True, error_model="numpy")

@@ -11,7 +11,12 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
-from rangeproc.estimation.imm_models import combine, model_matrices, switch_matrix
+from rangeproc.estimation.imm_models import (
+    combine,
+    model_matrices,
+    sparse_covariance,
+    switch_matrix,
+)
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack_n, unpack
 
 _cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
@@ -186,29 +191,14 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
     ``n`` the state size (the caller's compile-time constant). Inlined, with the Cholesky
     helpers.
     """
-    for a in range(n):                                      # FP = F P_f, x_pred = F x_f
+    for a in range(n):                                      # x_pred = F x_f
         acc = 0.0
-        for b in range(n):
-            FP[a, b] = 0.0
         for l in range(n):
             f = F[a, l]
             if f != 0.0:
                 acc += f * x_f[l]
-                for b in range(n):
-                    FP[a, b] += f * P_f[l, b]
         x_pred[a] = acc
-    for a in range(n):                                      # P_pred = FP F^T + Q
-        for b in range(a + 1):                              # (lower half; the terms of
-            P_pred[a, b] = Q[a, b]                          # each entry in ascending l)
-    for b in range(n):
-        for l in range(n):
-            f = F[b, l]
-            if f != 0.0:
-                for a in range(b, n):
-                    P_pred[a, b] += FP[a, l] * f
-    for a in range(n):
-        for b in range(a):
-            P_pred[b, a] = P_pred[a, b]
+    sparse_covariance(F, Q, P_f, FP, P_pred, n)             # FP = F P_f, P_pred = FP F^T + Q
     for a in range(n):                                      # E = P_next - P_pred
         for b in range(n):
             E[a, b] = P_next[a, b] - P_pred[a, b]
