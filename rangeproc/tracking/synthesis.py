@@ -4,7 +4,9 @@
    radar/theodolite track is cut where it jumped to another object or paused. Plots (rows
    without ``track_id``, in any order) go through the plot tracker (clutter is left out; plots
    without range cannot be tracked alone, step 6 takes them; a plot track is cut where it
-   jumped across missed scans, ``tracking.plot_jumps``); rows without ``track_id`` of an
+   jumped across missed scans, ``tracking.plot_jumps``; a plot track most of whose plots lie
+   behind another track's on its line of sight is a multipath ghost and clutter,
+   ``tracking.ghosts``); rows without ``track_id`` of an
    instrument that follows one object at a time are segmented as one track.
 2. **Anchored objects**: each declared target carrying GPS (or MISTRAM) starts as the
    trajectory of those rows alone: they name the object (DATA_CONTRACT: GPS and MISTRAM
@@ -66,6 +68,7 @@ from rangeproc.parallel import thread_map
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.angle_plots import angle_owners
 from rangeproc.tracking.biased_duplicates import join_biased_duplicates
+from rangeproc.tracking.ghosts import ghost_tracks
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
 from rangeproc.tracking.links import conflicts, score_links
 from rangeproc.tracking.objects import (
@@ -196,6 +199,14 @@ def sensor_segments(sensor: int, rows: SensorRows
                                              planar, timing.stamp_sigma))
             label = cut_jumps(rows.t[ranged], p, R, timing.clock,
                               stray_tails(timing.clock, label), timing.stamp_sigma)
+            ok = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
+            if neighbour_share(p[ok], R[ok], timing.frame[ok], float(chi2_ppf(
+                    GATE_PROBABILITY, 3)), planar) < SEVERAL_RETURNS_SHARE:   # one return
+                label, ghosts = ghost_tracks(timing.frame, z[:, 0], z[:, 1], z[:, 2],
+                                             rows.sigma[ranged][:, :3], label, planar)
+                if ghosts:
+                    log.debug("%s: %d plot tracks are multipath ghosts (clutter)",
+                              sensor, ghosts)
             clutter = ranged[label < 0]
             for k in range(int(label.max()) + 1 if label.size else 0):
                 add(ranged[label == k], -1, timing.scan[label == k])
