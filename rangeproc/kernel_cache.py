@@ -177,6 +177,22 @@ def configure() -> Path:
     return folder
 
 
+def specialisation(py_func: Callable, *parts: object) -> Callable:
+    """``py_func`` (a function a factory makes, one per specialisation, before numba compiles
+    it) named for its specialisation: ``parts`` appended to its ``__qualname__``.
+
+    numba names a compiled function by its qualified name and a counter of the compiling
+    process, and a cached one keeps that name. Two specialisations of one factory function
+    compiled in different processes can get the same name; a process that loads both from
+    the cache then runs the first one's code for the second (a UKF loop cached after an EKF
+    loop, run after it: "returned a result with an exception set"). A name per
+    specialisation keeps them apart (and gives each its own cache index)."""
+    tag = "_".join(re.sub(r"\W", "_", str(p)) for p in parts)
+    py_func.__qualname__ = f"{py_func.__qualname__}_{tag}"
+    py_func.__name__ = f"{py_func.__name__}_{tag}"
+    return py_func
+
+
 #: Suffix of the lock file beside a numba cache index that serialises the index's updates.
 LOCK_SUFFIX = ".lock"
 

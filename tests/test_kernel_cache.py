@@ -177,3 +177,43 @@ def test_cache_saves_are_exclusive(tmp_path: Path) -> None:
     assert _interleaved_saves(tmp_path / "raw", raw) != {"ekf": b"ekf code", "ukf": b"ukf code"}
     assert _interleaved_saves(tmp_path / "locked", locked) == {"ekf": b"ekf code",
                                                                "ukf": b"ukf code"}
+
+
+_FACTORY = '''
+import sys
+from numba import njit
+from rangeproc.kernel_cache import specialisation
+
+def make(c, named):
+    C = c
+    def kern(x):
+        return x + C
+    return njit(kern if not named else specialisation(kern, "plus", c))
+
+kernel = make(int(sys.argv[1]), sys.argv[2] == "1")
+kernel(0)
+print(next(iter(kernel.overloads.values())).fndesc.mangled_name)
+'''
+
+
+def test_specialisations_compiled_in_two_processes_get_two_names(tmp_path: Path) -> None:
+    """numba names a compiled function by its qualified name and a per-process counter, and
+    a cached one keeps that name: two specialisations of one factory, each compiled first
+    in its own process, get the same name (negative control), and a process that loaded
+    both from the cache ran the first one's code for the second (main's forward loop:
+    EKF cached, UKF cached by a process that had loaded the EKF, both loaded: "returned a
+    result with an exception set"). :func:`kernel_cache.specialisation` names them apart."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "factory.py"
+    script.write_text(_FACTORY)
+
+    def name(c: int, named: bool) -> str:
+        out = subprocess.run([sys.executable, str(script), str(c), "1" if named else "0"],
+                             capture_output=True, text=True, check=True,
+                             env=dict(os.environ, PYTHONPATH=str(ROOT.parent)))
+        return out.stdout.strip().splitlines()[-1]
+
+    assert name(1, False) == name(2, False)
+    assert name(1, True) != name(2, True)

@@ -45,6 +45,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from rangeproc.kernel_cache import specialisation
+
 from rangeproc.estimation.divergence import (
     MAX_RESET_INFLATION,
     PARTIAL_DIVERGENCE,
@@ -101,7 +103,6 @@ def _specialise(n_state: int) -> Callable:
     N_STATE = n_state
     FAST = n_state == fu.N
 
-    @njit(cache=True, nogil=True, error_model="numpy")
     def kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
                reset_after, reset_inflation, x_lin, codes, Lam, mu0):
         E = epoch_t.shape[0]
@@ -279,7 +280,8 @@ def _specialise(n_state: int) -> Callable:
                 pack_n(PP[j], Pm[k, j], N_STATE)
         return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
 
-    return kernel
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        specialisation(kernel, n_state))
 
 
 _KERNELS: dict[int, Callable] = {}

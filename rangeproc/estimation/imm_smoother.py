@@ -11,6 +11,8 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
+from rangeproc.kernel_cache import specialisation
+
 from rangeproc.estimation.imm_models import (
     combine_n,
     model_matrices,
@@ -31,7 +33,6 @@ def _specialise(n_state: int) -> Callable:
     constant and the pair step inlined."""
     N_STATE = n_state
 
-    @njit(cache=True, nogil=True, error_model="numpy")
     def kernel(epoch_t, xm, Pm, mu, omega, q_steps, codes, Lam, prune):
         E, r = xm.shape[0], xm.shape[1]
         n = N_STATE
@@ -157,7 +158,8 @@ def _specialise(n_state: int) -> Callable:
                     Pn[j] = T      # matters again earlier in the flight
         return xs, Ps, mus
 
-    return kernel
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        specialisation(kernel, n_state))
 
 
 _KERNELS: dict[int, Callable] = {}
