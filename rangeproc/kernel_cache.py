@@ -15,10 +15,21 @@ kernel module) points numba there, marks the folder as used, and removes the fol
 keys under the same base that no run has used for two weeks (:data:`UNUSED_S`).
 :func:`announce_compilation` prints one line when the first kernel of a run is compiled
 rather than loaded (:func:`compilation_announced`: while a command runs).
+
+numba saves a new cache entry by reading the function's index, picking the first free data
+file number, writing the index, then the data, with no lock: two processes that compile two
+specialisations of one function at once (the pipeline's forked workers, or ``make demo``
+beside a test run in the same checkout) can both pick the same number, so that one
+specialisation's entry is lost and the index may map the other to the wrong compiled code.
+:func:`configure` therefore makes each save exclusive (:func:`lock_saves`: an ``flock`` on
+``<index>.lock`` around numba's ``IndexDataCacheFile.save``), installed when numba's
+caching module is first imported.
 """
 from __future__ import annotations
 
 import hashlib
+import importlib.abc
+import importlib.util
 import os
 import re
 import shutil
@@ -161,8 +172,94 @@ def configure() -> Path:
         pass                          # numba falls back to its own locations
     if new:
         _prune(folder, time.time())
+    _lock_numba_saves()
     FOLDER = folder
     return folder
+
+
+def specialisation(py_func: Callable, *parts: object) -> Callable:
+    """``py_func`` (a function a factory makes, one per specialisation, before numba compiles
+    it) named for its specialisation: ``parts`` appended to its ``__qualname__``.
+
+    numba names a compiled function by its qualified name and a counter of the compiling
+    process, and a cached one keeps that name. Two specialisations of one factory function
+    compiled in different processes can get the same name; a process that loads both from
+    the cache then runs the first one's code for the second (a UKF loop cached after an EKF
+    loop, run after it: "returned a result with an exception set"). A name per
+    specialisation keeps them apart (and gives each its own cache index)."""
+    tag = "_".join(re.sub(r"\W", "_", str(p)) for p in parts)
+    py_func.__qualname__ = f"{py_func.__qualname__}_{tag}"
+    py_func.__name__ = f"{py_func.__name__}_{tag}"
+    return py_func
+
+
+#: Suffix of the lock file beside a numba cache index that serialises the index's updates.
+LOCK_SUFFIX = ".lock"
+
+
+def lock_saves(caching: object) -> bool:
+    """Wrap ``caching.IndexDataCacheFile.save`` (``caching``: the module
+    ``numba.core.caching``) so that each save holds an exclusive ``flock`` on the index's
+    lock file across its read of the index, its choice of data file and both writes (module
+    docstring). Idempotent; False where ``fcntl`` is missing (not POSIX: numba's own
+    behaviour) or numba's class has no ``save``."""
+    try:
+        import fcntl
+    except ImportError:
+        return False
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    original = getattr(cls, "save", None)
+    if original is None:
+        return False
+    if getattr(original, "locked_by_rangeproc", False):
+        return True
+
+    def save(self, key, data):  # type: ignore[no-untyped-def]
+        with open(self._index_path + LOCK_SUFFIX, "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                original(self, key, data)
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
+
+    save.locked_by_rangeproc = True  # type: ignore[attr-defined]
+    save.__doc__ = original.__doc__
+    cls.save = save
+    return True
+
+
+class _LockOnImport(importlib.abc.MetaPathFinder):
+    """One-shot import hook: :func:`lock_saves` as soon as ``numba.core.caching`` is
+    executed (importing numba at ``import rangeproc`` would slow every command)."""
+
+    NAME = "numba.core.caching"
+
+    def find_spec(self, name, path, target=None):  # type: ignore[no-untyped-def]
+        if name != self.NAME:
+            return None
+        if self in sys.meta_path:
+            sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        loader = getattr(spec, "loader", None)
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        exec_module = loader.exec_module
+
+        def exec_and_lock(module):  # type: ignore[no-untyped-def]
+            exec_module(module)
+            lock_saves(module)
+
+        loader.exec_module = exec_and_lock
+        return spec
+
+
+def _lock_numba_saves() -> None:
+    """:func:`lock_saves` now if numba's caching module is loaded, else at its import."""
+    caching = sys.modules.get(_LockOnImport.NAME)
+    if caching is not None:
+        lock_saves(caching)
+    elif not any(isinstance(f, _LockOnImport) for f in sys.meta_path):
+        sys.meta_path.insert(0, _LockOnImport())
 
 
 def announce_compilation(say: Callable[[str], None]) -> object:

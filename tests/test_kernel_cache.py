@@ -126,3 +126,94 @@ def test_the_first_compilation_is_announced_once() -> None:
     finally:
         event.unregister("numba:compile", listener)
     assert len(said) == 1 and "compiling the filter kernels" in said[0]
+
+
+def _interleaved_saves(tmp_path: Path, save) -> dict:  # type: ignore[no-untyped-def]
+    """Two threads save two keys to one numba cache index, the first held between its read
+    of the index and its writes until the second has read it too (or 1 s has passed: a
+    lock keeps the second out). Returns {key: the data each key loads}."""
+    import threading
+
+    from numba.core.caching import IndexDataCacheFile
+
+    files = [IndexDataCacheFile(str(tmp_path), "kernel", "stamp") for _ in range(2)]
+    second_read = threading.Event()
+    original_load = IndexDataCacheFile._load_index
+
+    def held_load(self):  # type: ignore[no-untyped-def]
+        out = original_load(self)
+        if self is files[0]:
+            second_read.wait(1.0)
+        else:
+            second_read.set()
+        return out
+
+    files[0]._load_index = held_load.__get__(files[0])
+    files[1]._load_index = held_load.__get__(files[1])
+    first = threading.Thread(target=save, args=(files[0], "ekf", b"ekf code"))
+    first.start()
+    time.sleep(0.1)
+    second = threading.Thread(target=save, args=(files[1], "ukf", b"ukf code"))
+    second.start()
+    first.join()
+    second.join()
+    reader = IndexDataCacheFile(str(tmp_path), "kernel", "stamp")
+    return {key: reader.load(key) for key in ("ekf", "ukf")}
+
+
+def test_cache_saves_are_exclusive(tmp_path: Path) -> None:
+    """numba's save reads the index, picks a free data file and writes both with no lock:
+    two saves interleaved lose a key or cross their data (negative control, numba's own
+    save); with :func:`kernel_cache.lock_saves` each key loads its own data."""
+    from numba.core import caching
+
+    assert kernel_cache.lock_saves(caching)             # configure() installed it already
+    locked = caching.IndexDataCacheFile.save
+    assert locked.locked_by_rangeproc
+    raw = locked.__closure__[next(i for i, name in enumerate(locked.__code__.co_freevars)
+                                  if name == "original")].cell_contents
+    (tmp_path / "raw").mkdir()
+    (tmp_path / "locked").mkdir()
+    assert _interleaved_saves(tmp_path / "raw", raw) != {"ekf": b"ekf code", "ukf": b"ukf code"}
+    assert _interleaved_saves(tmp_path / "locked", locked) == {"ekf": b"ekf code",
+                                                               "ukf": b"ukf code"}
+
+
+_FACTORY = '''
+import sys
+from numba import njit
+from rangeproc.kernel_cache import specialisation
+
+def make(c, named):
+    C = c
+    def kern(x):
+        return x + C
+    return njit(kern if not named else specialisation(kern, "plus", c))
+
+kernel = make(int(sys.argv[1]), sys.argv[2] == "1")
+kernel(0)
+print(next(iter(kernel.overloads.values())).fndesc.mangled_name)
+'''
+
+
+def test_specialisations_compiled_in_two_processes_get_two_names(tmp_path: Path) -> None:
+    """numba names a compiled function by its qualified name and a per-process counter, and
+    a cached one keeps that name: two specialisations of one factory, each compiled first
+    in its own process, get the same name (negative control), and a process that loaded
+    both from the cache ran the first one's code for the second (main's forward loop:
+    EKF cached, UKF cached by a process that had loaded the EKF, both loaded: "returned a
+    result with an exception set"). :func:`kernel_cache.specialisation` names them apart."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "factory.py"
+    script.write_text(_FACTORY)
+
+    def name(c: int, named: bool) -> str:
+        out = subprocess.run([sys.executable, str(script), str(c), "1" if named else "0"],
+                             capture_output=True, text=True, check=True,
+                             env=dict(os.environ, PYTHONPATH=str(ROOT.parent)))
+        return out.stdout.strip().splitlines()[-1]
+
+    assert name(1, False) == name(2, False)
+    assert name(1, True) != name(2, True)

@@ -42,6 +42,8 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
+from rangeproc.kernel_cache import specialisation
+
 from rangeproc.estimation import fast_update as fu
 from rangeproc.estimation.adaptive import sh_adapt, sh_record, sh_reset
 from rangeproc.estimation.constraint import norm_update
@@ -136,7 +138,6 @@ def _specialise(family: Family, n_state: int) -> Callable:
     FIXED = n_state == N_KINEMATIC           # the fixed-size prediction
     N_STATE = n_state
 
-    @njit(cache=True, nogil=True, error_model="numpy")
     def forward(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
                 reset_after, reset_inflation, x_lin, method, ukf, par):
         E, N, n = epoch_t.shape[0], meas_epoch.shape[0], N_STATE
@@ -330,7 +331,8 @@ def _specialise(family: Family, n_state: int) -> Callable:
         return (xf, Pf, nis, dof, rejected, loglik, resets[0], ll_rows, sigma_used, fade,
                 jerk_out, anomaly, knot)
 
-    return forward
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        specialisation(forward, family.name, n_state))
 
 
 _KERNELS: dict[tuple[str, int], Callable] = {}

@@ -45,6 +45,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from rangeproc.kernel_cache import specialisation
+
 from rangeproc.estimation.divergence import (
     MAX_RESET_INFLATION,
     PARTIAL_DIVERGENCE,
@@ -59,8 +61,8 @@ from rangeproc.models.measurement import N_COMPONENTS
 from rangeproc.estimation.imm_models import (
     CA,
     CT,
-    combine,
-    dense_predict,
+    combine_n,
+    dense_predict_n,
     model_matrices,
     switch_matrix,
     turn_rate,
@@ -68,8 +70,6 @@ from rangeproc.estimation.imm_models import (
 
 #: The per-epoch helpers, inlined into the loop (a call with array arguments costs their
 #: reference counting, several times per model and epoch).
-_combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
-_dense_predict = njit(nogil=True, error_model="numpy", inline="always")(dense_predict.py_func)
 _model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
     model_matrices.py_func)
 
@@ -103,7 +103,6 @@ def _specialise(n_state: int) -> Callable:
     N_STATE = n_state
     FAST = n_state == fu.N
 
-    @njit(cache=True, nogil=True, error_model="numpy")
     def kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
                reset_after, reset_inflation, x_lin, codes, Lam, mu0):
         E = epoch_t.shape[0]
@@ -133,8 +132,12 @@ def _specialise(n_state: int) -> Callable:
         X0 = np.empty((r, n))
         P0m = np.empty((r, n, n))
         ll = np.empty(r)
-        F = np.empty((n, n))
-        Qm = np.empty((n, n))
+        F = np.empty((r, n, n))                                 # each model's step
+        Qm = np.empty((r, n, n))
+        built = np.zeros(r, dtype=np.bool_)                     # F[j], Qm[j] hold the
+        built_dt = np.zeros(r)                                  # matrices of this step,
+        built_q = np.zeros(r)                                   # PSD and turn rate
+        built_w = np.zeros(r)
         xt = np.empty(n)
         T = np.empty((n, n))
         dx = np.empty(n)
@@ -165,10 +168,10 @@ def _specialise(n_state: int) -> Callable:
                 for j in range(r):
                     for a in range(r):
                         wmix[a] = Pi[a, j] * mu[a] / cbar[j]
-                    _combine(X, PP, wmix, X0[j], P0m[j], dx)
+                    combine_n(X, PP, wmix, X0[j], P0m[j], dx, N_STATE)
+                X, X0 = X0, X                                   # the mixed starts are the
+                PP, P0m = P0m, PP                               # models' states (no copy)
                 for j in range(r):                              # 2. model-conditioned prediction
-                    X[j] = X0[j]
-                    PP[j] = P0m[j]
                     w = turn_rate(X[j]) if codes[j] == CT else 0.0
                     omega[k, j] = w
                     if codes[j] == CA:                          # the single filter's arithmetic
@@ -176,9 +179,14 @@ def _specialise(n_state: int) -> Callable:
                             _predict_fixed(X[j], PP[j], T, epoch_t, q_steps, k)
                         else:
                             predict_epoch(X[j], PP[j], T, epoch_t, q_steps, k)
-                    else:
-                        _model_matrices(codes[j], dt, q_steps[k], w, F, Qm)
-                        _dense_predict(F, Qm, X[j], PP[j], xt, T)
+                    else:                                       # the step's matrices, rebuilt
+                        q = q_steps[k]                          # only when they changed
+                        if not (built[j] and built_dt[j] == dt and built_q[j] == q
+                                and built_w[j] == w):
+                            _model_matrices(codes[j], dt, q, w, F[j], Qm[j])
+                            built[j] = True
+                            built_dt[j], built_q[j], built_w[j] = dt, q, w
+                        dense_predict_n(F[j], Qm[j], X[j], PP[j], xt, T, N_STATE)
             else:
                 for j in range(r):
                     cbar[j] = mu[j]
@@ -260,7 +268,7 @@ def _specialise(n_state: int) -> Callable:
             for j in range(r):
                 mu[j] /= tot
             loglik += top + math.log(tot)
-            _combine(X, PP, mu, xt, T, dx)                      # combination
+            combine_n(X, PP, mu, xt, T, dx, N_STATE)            # combination
             for b in range(n):
                 if not math.isfinite(xt[b]):
                     raise FloatingPointError("non-finite state in the IMM filter")
@@ -272,7 +280,8 @@ def _specialise(n_state: int) -> Callable:
                 pack_n(PP[j], Pm[k, j], N_STATE)
         return xf, Pf, xm, Pm, mu_out, omega, nis, dof, rejected, loglik, n_resets
 
-    return kernel
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        specialisation(kernel, n_state))
 
 
 _KERNELS: dict[int, Callable] = {}

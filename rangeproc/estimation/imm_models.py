@@ -180,12 +180,12 @@ def sparse_covariance(F: np.ndarray, Q: np.ndarray, P_in: np.ndarray, T: np.ndar
             P_out[j, i] = P_out[i, j]
 
 
-@njit(cache=True, error_model="numpy")
-def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
-             T: np.ndarray) -> None:
+@njit(cache=True, error_model="numpy", inline="always")
+def dense_predict_n(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray,
+                    xt: np.ndarray, T: np.ndarray, n: int) -> None:
     """``x <- F x``, ``P <- F P F^T + Q`` (in place; ``xt`` (n,), ``T`` (n, n) work; the
-    covariance by :func:`sparse_covariance`)."""
-    n = x.shape[0]
+    covariance by :func:`sparse_covariance`); ``n`` the state size, a compile-time constant
+    in the inlining caller."""
     for i in range(n):
         acc = 0.0
         for j in range(n):
@@ -197,13 +197,24 @@ def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt
 
 
 @njit(cache=True, error_model="numpy")
-def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
-             dx: np.ndarray) -> None:
-    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``.
+def dense_predict(F: np.ndarray, Q: np.ndarray, x: np.ndarray, P: np.ndarray, xt: np.ndarray,
+                  T: np.ndarray) -> None:
+    """:func:`dense_predict_n` at the size of ``x`` (n,), called."""
+    dense_predict_n(F, Q, x, P, xt, T, x.shape[0])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def combine_n(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
+              dx: np.ndarray, n: int) -> None:
+    """Moment-matched mixture: ``x = sum w_j X_j``, ``out = sum w_j (P_j + dx dx^T)``
+    (``X`` (r, n), ``P`` (r, n, n) symmetric, ``w`` (r,); ``x``, ``dx`` (n,), ``out``
+    (n, n); ``n`` the state size, a compile-time constant in the inlining caller).
 
     Components of zero weight are skipped, not multiplied by 0: their X_j, P_j may be unset
-    (a model the smoother pruned at this epoch), and 0 * NaN is NaN."""
-    r, n = X.shape
+    (a model the smoother pruned at this epoch), and 0 * NaN is NaN. The lower triangle is
+    summed and mirrored: the upper one's terms are the same products of the same symmetric
+    entries, so the mirror has the bits a full sum would give (half the arithmetic)."""
+    r = X.shape[0]
     for a in range(n):
         acc = 0.0
         for j in range(r):
@@ -211,16 +222,27 @@ def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.
                 acc += w[j] * X[j, a]
         x[a] = acc
     for a in range(n):
-        for b in range(n):
+        for b in range(a + 1):
             out[a, b] = 0.0
     for j in range(r):
         if w[j] == 0.0:
             continue
+        wj = w[j]
         for a in range(n):
             dx[a] = X[j, a] - x[a]
         for a in range(n):
-            for b in range(n):
-                out[a, b] += w[j] * (P[j, a, b] + dx[a] * dx[b])
+            for b in range(a + 1):
+                out[a, b] += wj * (P[j, a, b] + dx[a] * dx[b])
+    for a in range(n):
+        for b in range(a):
+            out[b, a] = out[a, b]
+
+
+@njit(cache=True, error_model="numpy")
+def combine(X: np.ndarray, P: np.ndarray, w: np.ndarray, x: np.ndarray, out: np.ndarray,
+            dx: np.ndarray) -> None:
+    """:func:`combine_n` at the size of ``X`` (r, n), called."""
+    combine_n(X, P, w, x, out, dx, X.shape[1])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

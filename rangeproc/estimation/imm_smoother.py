@@ -11,8 +11,10 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
+from rangeproc.kernel_cache import specialisation
+
 from rangeproc.estimation.imm_models import (
-    combine,
+    combine_n,
     model_matrices,
     sparse_covariance,
     switch_matrix,
@@ -21,7 +23,6 @@ from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pa
 
 _cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
 _chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
-_combine = njit(nogil=True, error_model="numpy", inline="always")(combine.py_func)
 _model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
     model_matrices.py_func)
 _unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
@@ -32,7 +33,6 @@ def _specialise(n_state: int) -> Callable:
     constant and the pair step inlined."""
     N_STATE = n_state
 
-    @njit(cache=True, nogil=True, error_model="numpy")
     def kernel(epoch_t, xm, Pm, mu, omega, q_steps, codes, Lam, prune):
         E, r = xm.shape[0], xm.shape[1]
         n = N_STATE
@@ -54,11 +54,14 @@ def _specialise(n_state: int) -> Callable:
         cbar = np.empty(r)
         F = np.empty((r, n, n))                                 # each model's step
         Qm = np.empty((r, n, n))
+        built = np.zeros(r, dtype=np.bool_)                     # F[i], Qm[i] hold ...
+        built_dt = np.zeros(r)                                  # ... this step's matrices
+        built_q = np.zeros(r)
+        built_w = np.zeros(r)
         Pf = np.empty((n, n))
         Ppred = np.empty((n, n))
         xpred = np.empty(n)
         FP = np.empty((n, n))
-        Ct = np.empty((n, n))
         D = np.empty((n, n))
         dx = np.empty(n)
         T = np.empty((n, n))
@@ -67,7 +70,7 @@ def _specialise(n_state: int) -> Callable:
             unpack(Pm[E - 1, i], Pn[i])
         for i in range(r):
             mus[E - 1, i] = mu[E - 1, i]
-        _combine(Xn, Pn, mus[E - 1], xs[E - 1], T, dx)
+        combine_n(Xn, Pn, mus[E - 1], xs[E - 1], T, dx, N_STATE)
         pack_n(T, Ps[E - 1], N_STATE)
         for k in range(E - 2, -1, -1):
             dt = epoch_t[k + 1] - epoch_t[k]
@@ -92,28 +95,40 @@ def _specialise(n_state: int) -> Callable:
                 for i in range(r):                              # negligible pairs and models
                     if W[j, i] < prune * mus[k, j] * total or mus[k, j] < prune:
                         W[j, i] = 0.0
-            for i in range(r):                                  # model i's step, once
-                for j in range(r):
+            for i in range(r):                                  # model i's step, once, and
+                for j in range(r):                              # only when it changed
                     if W[j, i] != 0.0:
-                        _model_matrices(codes[i], dt, q_steps[k + 1], omega[k + 1, i], F[i],
-                                        Qm[i])
+                        q, w = q_steps[k + 1], omega[k + 1, i]
+                        if not (built[i] and built_dt[i] == dt and built_q[i] == q
+                                and built_w[i] == w):
+                            _model_matrices(codes[i], dt, q, w, F[i], Qm[i])
+                            built[i] = True
+                            built_dt[i], built_q[i], built_w[i] = dt, q, w
                         break
-            for j in range(r):
-                _unpack(Pm[k, j], Pf)
-                for i in range(r):
-                    if W[j, i] == 0.0:
-                        continue
-                    _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, Ct,
-                               D, T, dx, Xp[j, i], Pp[j, i], N_STATE)
             wsum = 0.0
             for j in range(r):
                 tot = 0.0
+                pairs = 0
+                last = 0
                 for i in range(r):
-                    tot += W[j, i]
+                    if W[j, i] != 0.0:
+                        tot += W[j, i]
+                        pairs += 1
+                        last = i
                 wc[j] = mus[k, j] if tot > 0.0 else 0.0
                 wsum += wc[j]
-                if tot <= 0.0:                                  # skipped: filled in below
+                if pairs == 0:                                  # skipped: filled in below
                     continue
+                _unpack(Pm[k, j], Pf)
+                if pairs == 1:             # the pair's weight over the model's total is 1:
+                    i = last               # its mixture is the pair's own step, bit for bit
+                    _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, D,
+                               T, dx, Xk[j], Pk[j], N_STATE)
+                    continue
+                for i in range(r):
+                    if W[j, i] != 0.0:
+                        _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP,
+                                   D, T, dx, Xp[j, i], Pp[j, i], N_STATE)
                 for a in range(n):
                     acc = 0.0
                     for i in range(r):
@@ -133,18 +148,18 @@ def _specialise(n_state: int) -> Callable:
                             Pk[j, a, b] += w * (Pp[j, i, a, b] + dx[a] * dx[b])
             for j in range(r):
                 wc[j] /= wsum
-            _combine(Xk, Pk, wc, xs[k], T, dx)
+            combine_n(Xk, Pk, wc, xs[k], T, dx, N_STATE)
             pack_n(T, Ps[k], N_STATE)
+            Xn, Xk = Xk, Xn                                     # smoothed k becomes "next"
+            Pn, Pk = Pk, Pn
             for j in range(r):
-                if wc[j] > 0.0:
-                    Xn[j] = Xk[j]
-                    Pn[j] = Pk[j]
-                else:          # a skipped model carries the combined smoothed estimate back: its
-                    Xn[j] = xs[k]                # chain must not restart from its filter where
-                    Pn[j] = T                    # it matters again earlier in the flight
+                if wc[j] == 0.0:   # a skipped model carries the combined smoothed estimate back:
+                    Xn[j] = xs[k]  # its chain must not restart from its filter where it
+                    Pn[j] = T      # matters again earlier in the flight
         return xs, Ps, mus
 
-    return kernel
+    return njit(cache=True, nogil=True, error_model="numpy")(
+        specialisation(kernel, n_state))
 
 
 _KERNELS: dict[int, Callable] = {}
@@ -178,7 +193,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
 @njit(cache=True, error_model="numpy", inline="always")
 def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
                x_next: np.ndarray, P_next: np.ndarray, x_pred: np.ndarray, P_pred: np.ndarray,
-               FP: np.ndarray, C: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
+               Ct: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
                x_out: np.ndarray, P_out: np.ndarray, n: int) -> None:
     """One RTS step of a model pair: from the filtered ``x_f, P_f`` through ``F, Q`` to the
     smoothed ``x_next, P_next`` of the next epoch:
@@ -187,9 +202,9 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
         P = P_f + C (P_next - P_pred) C^T,  P_pred = F P_f F^T + Q.
 
     Every product runs its innermost loop over contiguous rows; ``F`` is sparse (at most three
-    non-zeros a row) and skipped where zero. Work arrays: ``x_pred, dx`` (n,), the rest (n, n);
-    ``n`` the state size (the caller's compile-time constant). Inlined, with the Cholesky
-    helpers.
+    non-zeros a row) and skipped where zero; ``C`` is read from ``Ct`` (its transpose, the
+    solve's result) where it is. Work arrays: ``x_pred, dx`` (n,), the rest (n, n); ``n``
+    the state size (the caller's compile-time constant). Inlined, with the Cholesky helpers.
     """
     for a in range(n):                                      # x_pred = F x_f
         acc = 0.0
@@ -198,35 +213,32 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
             if f != 0.0:
                 acc += f * x_f[l]
         x_pred[a] = acc
-    sparse_covariance(F, Q, P_f, FP, P_pred, n)             # FP = F P_f, P_pred = FP F^T + Q
+    sparse_covariance(F, Q, P_f, Ct, P_pred, n)             # Ct = F P_f, P_pred = Ct F^T + Q
     for a in range(n):                                      # E = P_next - P_pred
         for b in range(n):
             E[a, b] = P_next[a, b] - P_pred[a, b]
     if not _cholesky(P_pred, n):
         raise FloatingPointError("predicted covariance not positive definite in the IMM "
                                  "smoother")
-    _chol_solve(P_pred, n, FP, n)                    # FP <- P_pred^-1 F P_f = C^T
-    for a in range(n):
-        for b in range(n):
-            C[a, b] = FP[b, a]
+    _chol_solve(P_pred, n, Ct, n)                           # Ct <- P_pred^-1 F P_f = C^T
     for a in range(n):
         dx[a] = x_next[a] - x_pred[a]
     for a in range(n):                                      # x = x_f + C dx
         acc = x_f[a]
         for b in range(n):
-            acc += C[a, b] * dx[b]
+            acc += Ct[b, a] * dx[b]
         x_out[a] = acc
     for a in range(n):                                      # G = C E
         for b in range(n):
             G[a, b] = 0.0
         for l in range(n):
-            c = C[a, l]
+            c = Ct[l, a]
             for b in range(n):
                 G[a, b] += c * E[l, b]
     for a in range(n):                                      # P = P_f + G C^T
         for b in range(a + 1):
             acc = P_f[a, b]
             for l in range(n):
-                acc += G[a, l] * C[b, l]
+                acc += G[a, l] * Ct[l, b]
             P_out[a, b] = acc
             P_out[b, a] = acc
