@@ -1,4 +1,4 @@
-"""Stationary returns (tracking.plot_tracker.moving_tracks): a moored boat, its position known
+"""Stationary returns (tracking.stationary.moving_tracks): a moored boat, its position known
 to its noise scan after scan, is no object even where its plots outscore the clutter map; a
 moored boat that leaves keeps its one track, its plots at the berth included."""
 from __future__ import annotations
