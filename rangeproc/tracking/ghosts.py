@@ -20,10 +20,10 @@ within ``GHOST_SIGMAS`` of the two plots' noise) nearer to the sensor by more th
 A boat that crosses behind another for a few scans keeps its track: the Autoferry radar
 tracks of the boats had at most 28 % of their plots behind another track, their ghosts
 44-100 % (most above 60 %). The test applies to a sensor that gives one return per object a
-scan (synthesis step 1 asks ``tracking.clutter_map.neighbour_share``, as the plot tracker
-does): a lidar's further returns of one hull lie behind each other on its line of sight, and
-a second track on them is a copy of the object, which the plot tracker and step 5 of
-synthesis settle, not a ghost.
+scan (``tracking.plot_tracker.several_returns``, decided once in synthesis step 1 for the
+plot tracker and for this test): a lidar's further returns of one hull lie behind each
+other on its line of sight, and a second track on them is a copy of the object, which the
+plot tracker and step 5 of synthesis settle, not a ghost.
 Two objects that stay on one line of sight from the sensor for most of their common time (one
 in another's wake, straight toward or away from the sensor) would lose the further one's
 plot track; the object is still followed by every other sensor that sees it.

@@ -442,9 +442,20 @@ def extent_in_use(tr: _ImmTrack, axes: int) -> float:
     return tr.extent if tr.extent > EXTENT_SIGNIFICANCE * se else 0.0
 
 
+def several_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool) -> bool:
+    """Whether a sensor gives several returns of one object a scan: at least
+    ``SEVERAL_RETURNS_SHARE`` of its plots (p (N, 3) m, R (N, 3, 3) m^2, scan (N,); plots
+    without a finite position left out) have a neighbour of the same scan within the
+    ``GATE_PROBABILITY`` gate of their two noises (``tracking.clutter_map.neighbour_share``)."""
+    ok = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
+    return neighbour_share(p[ok], R[ok], scan[ok], gate, planar) >= SEVERAL_RETURNS_SHARE
+
+
 def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 clock: np.ndarray | None = None, planar: bool = False,
-                stamp_sigma: float = 0.0, retrodict: bool = True) -> np.ndarray:
+                stamp_sigma: float = 0.0, retrodict: bool = True,
+                several: bool | None = None) -> np.ndarray:
     """(N,) int64 track label per plot (0, 1, ... in order of first plot; -1 = clutter).
 
     t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) the frames plots are
@@ -455,8 +466,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     stamps a whole scan with one time: the scan period over sqrt(12)), carried into each
     plot's position noise along the track's velocity; retrodict: the tracks' plots before
     their confirmation found by the tracker run backward in time (``tracking.retrodiction``;
-    off where only the tracks' revisits are wanted). See the module docstring (*Tracker*)
-    for the method.
+    off where only the tracks' revisits are wanted); several: :func:`several_returns` of
+    these plots where the caller has it (default: computed here). See the module docstring
+    (*Tracker*) for the method.
     """
     if clock is None:
         clock = np.asarray(scan, dtype=float)
@@ -465,12 +477,13 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     if not usable.all():            # plots without a position (no platform geometry)
         if usable.any():
             label[usable] = track_plots(t[usable], p[usable], R[usable], scan[usable],
-                                        clock[usable], planar, stamp_sigma, retrodict)
+                                        clock[usable], planar, stamp_sigma, retrodict,
+                                        several)
         return label
     if t.size == 0:
         return label
-    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
-    several = neighbour_share(p, R, scan, gate, planar) >= SEVERAL_RETURNS_SHARE
+    if several is None:
+        several = several_returns(p, R, scan, planar)
 
     def tracker(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 clock: np.ndarray) -> np.ndarray:

@@ -82,9 +82,9 @@ from rangeproc.tracking.plot_association import reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plot_jumps import cut_jumps
 from rangeproc.tracking.plot_tails import stray_tails
-from rangeproc.tracking.clutter_map import neighbour_share, stationary_returns
-from rangeproc.tracking.plot_tracker import (GATE_PROBABILITY, SEVERAL_RETURNS_SHARE,
-                                             PlotTiming, plot_timing, track_plots)
+from rangeproc.tracking.clutter_map import stationary_returns
+from rangeproc.tracking.plot_tracker import (GATE_PROBABILITY, PlotTiming, plot_timing,
+                                             several_returns, track_plots)
 from rangeproc.tracking.reassociation import reassociate_plots
 from rangeproc.tracking.return_spread import largest, object_spreads
 from rangeproc.tracking.plots import plot_positions, several_objects
@@ -194,14 +194,13 @@ def sensor_segments(sensor: int, rows: SensorRows
                                   rows.s[ranged], rows.Qr[ranged])
             planar = bool(np.median(rows.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
             timing = plot_timing(rows.t[ranged], z[:, 1], p, R, planar)
+            several = several_returns(p, R, timing.frame, planar)
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
                                  track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
-                                             planar, timing.stamp_sigma))
+                                             planar, timing.stamp_sigma, several=several))
             label = cut_jumps(rows.t[ranged], p, R, timing.clock,
                               stray_tails(timing.clock, label), timing.stamp_sigma)
-            ok = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
-            if neighbour_share(p[ok], R[ok], timing.frame[ok], float(chi2_ppf(
-                    GATE_PROBABILITY, 3)), planar) < SEVERAL_RETURNS_SHARE:   # one return
+            if not several:                                   # one return per object a scan
                 label, ghosts = ghost_tracks(timing.frame, z[:, 0], z[:, 1], z[:, 2],
                                              rows.sigma[ranged][:, :3], label, planar)
                 if ghosts:
@@ -428,7 +427,7 @@ def _return_spreads(rows: Mapping[int, SensorRows],
                     row_object: Mapping[int, np.ndarray]) -> dict[str, np.ndarray]:
     """Object id -> the spread of its returns within a scan (``tracking.return_spread``,
     (2, 2) m^2), the largest over the plot sensors that give several returns per object a
-    scan (``tracking.clutter_map.neighbour_share``, as the tracker decides it); ``timings``
+    scan (``tracking.plot_tracker.several_returns``, as the tracker decides it); ``timings``
     as for ``tracking.reassociation.reassociate_plots``, ``row_object`` the final owners."""
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     out: dict[str, np.ndarray] = {}
@@ -441,8 +440,7 @@ def _return_spreads(rows: Mapping[int, SensorRows],
         planar = bool(np.median(r.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
         p, R, frame = p[usable], R[usable], timing.frame[usable]
         owner = row_object[i][ranged][usable]
-        if not (owner != "").any() or neighbour_share(p, R, frame, gate, planar) \
-                < SEVERAL_RETURNS_SHARE:
+        if not (owner != "").any() or not several_returns(p, R, frame, planar):
             continue
         for name, S in object_spreads(p, R, frame, owner, gate).items():
             out[name] = largest(out.get(name), S)
