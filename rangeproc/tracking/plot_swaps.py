@@ -73,7 +73,7 @@ def repair_heads(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     first = {int(k): int(scan[label == k].min()) for k in np.unique(label[tracked])}
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     for a, b, k in _close_boundaries(t, p, R, scan, label, tracked, gate):
-        if k - max(first[a], first[b]) > CONFIRM_SCANS or k <= min(first[a], first[b]):
+        if k - min(first[a], first[b]) > CONFIRM_SCANS or k <= min(first[a], first[b]):
             continue
         rows_a = np.flatnonzero(label == a)
         rows_b = np.flatnonzero(label == b)
