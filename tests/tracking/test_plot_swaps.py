@@ -82,3 +82,28 @@ def test_a_later_exchange_is_not_tested() -> None:
     label = obj.copy()
     label[scan >= 12] = 1 - obj[scan >= 12]
     np.testing.assert_array_equal(repair_heads(t, p, R, scan, label), label)
+
+
+def old_and_new_neighbours(seed: int):
+    """A boat tracked from scan 0 and a second boat 20 m beside it from scan 10 (1.7 s scans,
+    3 m/s east, a radar plot's 5 m), the old track holding a stray plot 17 m off in scan 12
+    as in a recording: times, positions, covariances, scans, true object per plot."""
+    rng = np.random.default_rng(seed)
+    R = np.diag([5.0, 5.0, 10.0]) ** 2
+    sa, sb = np.arange(20), np.arange(10, 20)
+    t = np.r_[sa * 1.7 + 0.10, sb * 1.7 + 0.12]
+    p = np.column_stack([3.0 * t, np.r_[np.zeros(sa.size), np.full(sb.size, 20.0)],
+                         np.zeros(t.size)]) + rng.normal(size=(t.size, 3)) * [5.0, 5.0, 10.0]
+    p[12] += [-12.0, -12.0, 0.0]
+    scan, obj = np.r_[sa, sb], np.r_[np.zeros(sa.size, int), np.ones(sb.size, int)]
+    order = np.argsort(t, kind="stable")
+    return t[order], p[order], np.broadcast_to(R, (t.size, 3, 3)), scan[order], obj[order]
+
+
+def test_an_old_track_is_not_exchanged_with_a_new_neighbour() -> None:
+    """Only two young tracks are tested: against an old track with a velocity, a new track's
+    one-plot head explains either continuation and the test scores a near tie. Tested at
+    the new track's first scans (the rule before), 21 of these 40 draws swapped the boats."""
+    for seed in range(40):
+        t, p, R, scan, obj = old_and_new_neighbours(seed)
+        np.testing.assert_array_equal(repair_heads(t, p, R, scan, obj), obj)
