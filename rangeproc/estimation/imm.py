@@ -186,7 +186,8 @@ def _specialise(n_state: int) -> Callable:
                             _model_matrices(codes[j], dt, q, w, F[j], Qm[j])
                             built[j] = True
                             built_dt[j], built_q[j], built_w[j] = dt, q, w
-                        dense_predict_n(F[j], Qm[j], X[j], PP[j], xt, T, N_STATE)
+                        dense_predict_n(F[j], Qm[j], X[j], PP[j], xt, T, N_STATE,
+                                        codes[j])
             else:
                 for j in range(r):
                     cbar[j] = mu[j]

@@ -123,12 +123,12 @@ def _specialise(n_state: int) -> Callable:
                 if pairs == 1:             # the pair's weight over the model's total is 1:
                     i = last               # its mixture is the pair's own step, bit for bit
                     _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP, D,
-                               T, dx, Xk[j], Pk[j], N_STATE)
+                               T, dx, Xk[j], Pk[j], N_STATE, codes[i])
                     continue
                 for i in range(r):
                     if W[j, i] != 0.0:
                         _pair_step(F[i], Qm[i], xm[k, j], Pf, Xn[i], Pn[i], xpred, Ppred, FP,
-                                   D, T, dx, Xp[j, i], Pp[j, i], N_STATE)
+                                   D, T, dx, Xp[j, i], Pp[j, i], N_STATE, codes[i])
                 for a in range(n):
                     acc = 0.0
                     for i in range(r):
@@ -194,7 +194,7 @@ def imm_smooth(epoch_t: np.ndarray, xm: np.ndarray, Pm: np.ndarray, mu: np.ndarr
 def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
                x_next: np.ndarray, P_next: np.ndarray, x_pred: np.ndarray, P_pred: np.ndarray,
                Ct: np.ndarray, E: np.ndarray, G: np.ndarray, dx: np.ndarray,
-               x_out: np.ndarray, P_out: np.ndarray, n: int) -> None:
+               x_out: np.ndarray, P_out: np.ndarray, n: int, code: int = -1) -> None:
     """One RTS step of a model pair: from the filtered ``x_f, P_f`` through ``F, Q`` to the
     smoothed ``x_next, P_next`` of the next epoch:
 
@@ -202,9 +202,11 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
         P = P_f + C (P_next - P_pred) C^T,  P_pred = F P_f F^T + Q.
 
     Every product runs its innermost loop over contiguous rows; ``F`` is sparse (at most three
-    non-zeros a row) and skipped where zero; ``C`` is read from ``Ct`` (its transpose, the
-    solve's result) where it is. Work arrays: ``x_pred, dx`` (n,), the rest (n, n); ``n``
-    the state size (the caller's compile-time constant). Inlined, with the Cholesky helpers.
+    non-zeros a row) and skipped where zero (at nine states, with the model's ``code``, only
+    the entries that can be non-zero are added: ``imm_models.structured_covariance``);
+    ``C`` is read from ``Ct`` (its transpose, the solve's result) where it is. Work arrays:
+    ``x_pred, dx`` (n,), the rest (n, n); ``n`` the state size (the caller's compile-time
+    constant). Inlined, with the Cholesky helpers.
     """
     for a in range(n):                                      # x_pred = F x_f
         acc = 0.0
@@ -213,7 +215,7 @@ def _pair_step(F: np.ndarray, Q: np.ndarray, x_f: np.ndarray, P_f: np.ndarray,
             if f != 0.0:
                 acc += f * x_f[l]
         x_pred[a] = acc
-    sparse_covariance(F, Q, P_f, Ct, P_pred, n)             # Ct = F P_f, P_pred = Ct F^T + Q
+    sparse_covariance(F, Q, P_f, Ct, P_pred, n, code)       # Ct = F P_f, P_pred = Ct F^T + Q
     for a in range(n):                                      # E = P_next - P_pred
         for b in range(n):
             E[a, b] = P_next[a, b] - P_pred[a, b]
