@@ -496,6 +496,7 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 taken[a] = True
                 owner[a] = j
         if further_returns:
+            taken = _one_hull_each(live, owner, taken, rows, p, R, gate, planar)
             live, taken = _other_returns(live, owner, taken, rows, p, R, gate, planar)
         keep = []
         for tr in live:
@@ -514,15 +515,43 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     return label
 
 
-def _pair_close(tr: _ImmTrack, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,
+def _pair_close(tr: _ImmTrack | None, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,
                 Rb: np.ndarray, gate: float, axes: int) -> bool:
     """Whether plots pa and pb (3,) m, covariances Ra, Rb (3, 3) m^2, can be two returns of
-    track ``tr``'s hull: apart by at most their noise and twice its extent in use, within the
-    chi-square ``gate``."""
+    track ``tr``'s hull: apart by at most their noise and twice its extent in use (none
+    without a track), within the chi-square ``gate``."""
     C = Ra + Rb
-    C[np.arange(axes), np.arange(axes)] += 2.0 * extent_in_use(tr, axes)
+    if tr is not None:
+        C[np.arange(axes), np.arange(axes)] += 2.0 * extent_in_use(tr, axes)
     dp = pa - pb
     return bool(dp @ np.linalg.solve(C, dp) <= gate)
+
+
+def _one_hull_each(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
+                   rows: np.ndarray, p: np.ndarray, R: np.ndarray, gate: float,
+                   planar: bool) -> np.ndarray:
+    """The plots of scan ``rows`` that start no track, for a sensor that gives several
+    returns of one hull a scan: ``taken`` (A,) with, in addition, each plot no track took
+    that lies within the pair gate (:func:`_pair_close`) of a plot of the scan that a
+    tentative track took or that starts a track (the scan's untaken plots in order, the
+    first of each group starting it). Two returns of one hull in the first scans would
+    otherwise start two tracks that each take one return a scan, are confirmed together and
+    follow the one object as two (:func:`_other_returns` settles only plots beside a
+    confirmed track's). owner (A,) as for :func:`_other_returns`."""
+    axes = 2 if planar else 3
+    out = taken.copy()
+    tentative = [b for b in np.flatnonzero(owner >= 0) if not live[owner[b]].confirmed]
+    starters: list[int] = []
+    for a in np.flatnonzero(~taken):
+        beside = (any(_pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]],
+                                  R[rows[b]], gate, axes) for b in tentative)
+                  or any(_pair_close(None, p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
+                                     gate, axes) for b in starters))
+        if beside:
+            out[a] = True
+        else:
+            starters.append(int(a))     # it starts a track: the anchor of its own returns
+    return out
 
 
 def _other_returns(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
