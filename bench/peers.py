@@ -146,13 +146,16 @@ def rangeproc_kernel(call: RangeprocCall) -> tuple[np.ndarray, np.ndarray, np.nd
     """The timed call: forward pass (the family ``call.settings`` names) + RTS smoother
     (without the EM process-noise statistic, which the peers do not compute; with the spline
     filter's jerk input when it ran). The motion model is linear, so the unscented RTS
-    smoother is this same RTS smoother. Returns (xf, xs, Ps packed)."""
+    smoother is this same RTS smoother, run in place on the filter's arrays as the pipeline
+    runs it (the filtered states copied first: the agreement rows compare them). Returns
+    (xf, xs, Ps packed)."""
     from rangeproc.estimation.forward import run_filter
     from rangeproc.estimation.rts import rts_smooth
     out = run_filter(*call)
-    xs, Ps = rts_smooth(call.rows.epoch_t, out.xf, out.Pf, call.prior.q_steps, False, False,
+    xf = out.xf.copy()
+    xs, Ps = rts_smooth(call.rows.epoch_t, out.xf, out.Pf, call.prior.q_steps, False, True,
                         None, out.jerk if out.jerk.shape[0] else None)[:2]
-    return out.xf, xs, Ps
+    return xf, xs, Ps
 
 
 def rangeproc_imm_kernel(args: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

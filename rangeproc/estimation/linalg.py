@@ -32,7 +32,13 @@ def pack_n(P: np.ndarray, out: np.ndarray, n: int) -> None:
 @njit(cache=True, error_model="numpy")
 def unpack(p: np.ndarray, out: np.ndarray) -> None:
     """Inverse of :func:`pack`: fill the full symmetric ``out`` (n, n)."""
-    n = out.shape[0]
+    unpack_n(p, out, out.shape[0])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def unpack_n(p: np.ndarray, out: np.ndarray, n: int) -> None:
+    """:func:`unpack` into the leading (n, n) block, inlined (a compile-time ``n`` in the
+    caller fixes the loops' size)."""
     k = 0
     for i in range(n):
         for j in range(i + 1):

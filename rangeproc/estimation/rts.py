@@ -31,7 +31,13 @@ from numba import njit
 
 from rangeproc.estimation.fading import apply_fading
 from rangeproc.estimation.kernels import add_q, left_f, left_f_t, predict_cov, predict_state
-from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack, unpack
+from rangeproc.estimation.linalg import (
+    chol_solve_inplace,
+    cholesky_inplace,
+    pack,
+    unpack,
+    unpack_n,
+)
 
 from rangeproc.estimation.spline_filter import add_jerk
 from rangeproc.models.motion import N_KINEMATIC, ca_axis_step, white_jerk_q
@@ -39,8 +45,18 @@ from rangeproc.models.motion import N_KINEMATIC, ca_axis_step, white_jerk_q
 N = N_KINEMATIC
 _cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
 _chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
-_pack = njit(nogil=True, error_model="numpy", inline="always")(pack.py_func)
-_unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
+
+
+@njit(nogil=True, error_model="numpy", inline="always")
+def _pack_mirrored(P: np.ndarray, out: np.ndarray) -> None:
+    """:func:`linalg.pack` of an exactly symmetric (mirrored) ``P`` at the state size
+    :data:`N`: its lower triangle as it is (``pack``'s ``0.5 * (p + p)`` is ``p``, bit for
+    bit)."""
+    k = 0
+    for i in range(N):
+        for j in range(i + 1):
+            out[k] = P[i, j]
+            k += 1
 
 
 #: Relative diagonal loadings tried when a predicted covariance fails its Cholesky factorisation
@@ -259,18 +275,19 @@ def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarr
     """
     P_f = np.empty((N, N))
     P_next = np.empty((N, N))
-    P_pred = np.empty((N, N))
-    L = np.empty((N, N))
+    P_pred = np.empty((N, N))                          # factored in place: L
+    D = np.empty((N, N))
     Ct = np.empty((N, N))
     M = np.empty((N, N))
     x_pred = np.empty(N)
     dx = np.empty(N)
-    _unpack(Ps[start + 1], P_next)
+    p_diag = np.empty(N)
+    unpack_n(Ps[start + 1], P_next, N)
     for k in range(start, -1, -1):
         dt = epoch_t[k + 1] - epoch_t[k]
         q = q_steps[k + 1]
         h2 = 0.5 * dt * dt
-        _unpack(Pf[k], P_f)
+        unpack_n(Pf[k], P_f, N)
         for i in range(N):
             x_pred[i] = xf[k, i]
         for a in range(3):                             # x_pred = F x_f (+ B S)
@@ -297,16 +314,18 @@ def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarr
             P_pred[3 + a, 6 + a] += q12
             P_pred[6 + a, 3 + a] += q12
             P_pred[6 + a, 6 + a] += q22
-        for i in range(N):
+        for i in range(N):                             # symmetrised; D = P_next - P_pred
             for j in range(i):
                 v = 0.5 * (P_pred[i, j] + P_pred[j, i])
                 P_pred[i, j] = v
                 P_pred[j, i] = v
+        for i in range(N):
+            p_diag[i] = P_pred[i, i]
             for j in range(N):
-                L[i, j] = P_pred[i, j]
-        if not _cholesky(L, N):
+                D[i, j] = P_next[i, j] - P_pred[i, j]
+        if not _cholesky(P_pred, N):
             return k                                   # loading needed: the general code
-        _chol_solve(L, N, Ct, N)                       # C^T = P_pred^-1 F P_f (in place)
+        _chol_solve(P_pred, N, Ct, N)                  # C^T = P_pred^-1 F P_f (in place)
         for i in range(N):
             dx[i] = xs[k + 1, i] - x_pred[i]
         for i in range(N):                             # xs = xf + C (xs_next - x_pred)
@@ -318,7 +337,7 @@ def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarr
             for j in range(N):
                 M[i, j] = 0.0
             for l in range(N):
-                d = P_next[i, l] - P_pred[i, l]
+                d = D[i, l]
                 for j in range(N):
                     M[i, j] += d * Ct[l, j]
         for i in range(N):                             # P_s = P_f + C M (lower half)
@@ -326,14 +345,14 @@ def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarr
                 acc = P_f[i, j]
                 for l in range(N):
                     acc += Ct[l, i] * M[l, j]
-                if j == i and not acc * TEXTBOOK_RATIO > P_pred[i, i]:
+                if j == i and not acc * TEXTBOOK_RATIO > p_diag[i]:
                     return k                           # digits lost: the symmetric form
-                P_pred[i, j] = acc
+                D[i, j] = acc
         for i in range(N):
             xs[k, i] = x_pred[i]
             for j in range(i):
-                P_pred[j, i] = P_pred[i, j]
-        _pack(P_pred, Ps[k])
+                D[j, i] = D[i, j]
+        _pack_mirrored(D, Ps[k])
         if want_em:                                    # EM statistic, lag-one covariance
             acc = 0.0                                  # P_{k+1,k|N} = P_next C^T
             for ax in range(6, 9):
@@ -343,7 +362,7 @@ def _rts_fixed(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, xs: np.ndarr
                 d = xs[k + 1, ax] - xs[k, ax]
                 if jerk is not None:                   # the known input's increment
                     d -= jerk[k + 1, ax - 6] * dt
-                acc += d * d + P_next[ax, ax] + P_pred[ax, ax] - 2.0 * cross
+                acc += d * d + P_next[ax, ax] + D[ax, ax] - 2.0 * cross
             em[k + 1] = max(acc, 0.0) / 3.0
-        P_next, P_pred = P_pred, P_next                # smoothed k becomes "next"
+        P_next, D = D, P_next                          # smoothed k becomes "next"
     return -1
