@@ -21,8 +21,11 @@
    (``--pipeline-only``) so that its peak resident memory is the pipeline's own (after a
    warm-up subprocess on a 60 s sortie, so numba compilation is not timed). Reports the
    stage seconds (read, assemble, fuse, write, report), the fuse stage broken down by the
-   functions it calls (edit, process-noise tuning, filter, smooth, residuals), the process
-   wall time from interpreter start to exit, microseconds per measurement row, and memory.
+   functions it calls (``breakdown.FUSE_PARTS``: merging the rows, process-noise search,
+   filter + smoother passes with their forward filter, smoother and residuals, registration,
+   noise estimates, the thinned pass carried to every row, ...; what they leave is
+   ``unattributed_s`` in the JSON), the process wall time from interpreter start to exit,
+   microseconds per measurement row, and memory.
 3. Several objects at scale (issue 9): simulates kind ``scale`` (``rangeproc simulate
    --objects scale``: 10 objects, surveillance radar SR1 with a 4 s scan and 20 clutter plots
    per scan, tracking radars R1-R3 at 20 Hz per track, GPS on four objects; ``--multi-duration``
@@ -70,7 +73,7 @@ ROOT = BENCH.parent
 sys.path.insert(0, str(BENCH))
 
 import peers  # noqa: E402  (bench/ is put on sys.path just above)
-from breakdown import Breakdown, print_breakdown, rss_and_peak  # noqa: E402
+from breakdown import Breakdown, print_breakdown, remainders, rss_and_peak  # noqa: E402
 from meta import run_meta  # noqa: E402
 
 #: acceptance figures of the speed issue (they supersede the earlier kernel and campaign
@@ -399,7 +402,8 @@ def pipeline_child(config: Path, json_out: Path) -> None:
     rows = {sid: int(s.get("n_read", s["n_rows"])) for sid, s in sensors.items()}
     json_out.write_text(json.dumps({
         "import_s": import_s, "run_s": run_s, "stages_s": out.timings,
-        "breakdown": where.records(), "rows": rows,
+        "breakdown": where.records(), "unattributed_s": remainders(where.records()),
+        "rows": rows,
         "target_rows": sum(r for sid, r in rows.items() if sensors[sid]["kind"] != "ins"),
         "baseline_rss_bytes": base, "peak_rss_bytes": peak}))
 

@@ -22,18 +22,41 @@ from pathlib import Path
 
 #: (module, function) -> part of the fusion, shown under the stage that called it (the
 #: associate stage fuses rows too). Wrapped in the module that calls it, so each call is
-#: counted once (a part inside another part counts in both).
+#: counted once; a label that starts with spaces is a part inside the part above it (counted
+#: in both; the stage's remainder, "other", is what its top-level parts leave). One label may
+#: be wrapped in several modules (the first pass is run from ``centralised``, the refinement
+#: passes from ``refinement``): its calls and seconds add up. The forward filters of the
+#: process-noise search run side by side in threads: their seconds are thread-seconds.
 FUSE_PARTS = {
+    ("rangeproc.stages.fuse", "merge"): "merge rows",
+    ("rangeproc.fusion.centralised", "lead_in_rows"): "lead-in rows",
     ("rangeproc.fusion.centralised", "difference_sigma"): "noise (first estimate)",
-    ("rangeproc.fusion.centralised", "start_process_noise"): "process noise search",
+    ("rangeproc.fusion.centralised", "thinned_pass_rows"): "thinning",
+    ("rangeproc.fusion.centralised", "initial_state"): "start state",
+    ("rangeproc.fusion.centralised", "searched_q"): "process noise search",
+    ("rangeproc.fusion.refinement", "searched_q"): "process noise search",
+    ("rangeproc.estimation.tuning", "run_filter"): "  forward filters (q candidates)",
     ("rangeproc.fusion.centralised", "run_pass"): "filter + smoother pass",
-    ("rangeproc.fusion.passes", "kalman_forward"): "  forward filter",
+    ("rangeproc.fusion.refinement", "run_pass"): "filter + smoother pass",
+    ("rangeproc.fusion.passes", "run_filter"): "  forward filter",
     ("rangeproc.fusion.passes", "rts_smooth"): "  RTS smoother",
+    ("rangeproc.fusion.passes", "imm_smooth"): "  IMM smoother",
     ("rangeproc.fusion.passes", "smoothed_residuals"): "  residuals",
-    ("rangeproc.fusion.centralised", "register"): "registration",
-    ("rangeproc.fusion.centralised", "corrected_residuals"): "corrected residuals",
-    ("rangeproc.fusion.centralised", "residual_sigma"): "noise (from residuals)",
-    ("rangeproc.fusion.centralised", "local_process_noise"): "local process noise",
+    ("rangeproc.fusion.passes", "component_use"): "  gate use",
+    ("rangeproc.fusion.centralised", "unsupported_time"): "white or discounted first pass",
+    ("rangeproc.fusion.centralised", "correlation_factors"): "white or discounted first pass",
+    ("rangeproc.fusion.centralised", "imm_start"): "IMM start",
+    ("rangeproc.fusion.refinement", "refraction_corrections"): "refraction",
+    ("rangeproc.fusion.refinement", "register"): "registration",
+    ("rangeproc.fusion.refinement", "apply_increments"): "corrected rows",
+    ("rangeproc.fusion.refinement", "corrected_residuals"): "corrected residuals",
+    ("rangeproc.fusion.refinement", "row_shift"): "corrected residuals",
+    ("rangeproc.fusion.refinement", "residual_sigma"): "noise (from residuals)",
+    ("rangeproc.fusion.refinement", "local_process_noise"): "local process noise",
+    ("rangeproc.fusion.refinement", "carry_to_every_row"): "thinned pass to every row",
+    ("rangeproc.fusion.centralised", "calibration_covariance"): "calibration covariance",
+    ("rangeproc.fusion.centralised", "lockout_time"): "lock-out check",
+    ("rangeproc.fusion.centralised", "_concat"): "spans joined",
 }
 
 _STATUS = Path("/proc/self/status")
@@ -159,6 +182,18 @@ class Breakdown:
         return out
 
 
+def remainders(records: list[dict]) -> dict[str, float]:
+    """Seconds of each stage with parts that its top-level parts leave unexplained
+    ("other"; stage label -> s)."""
+    out = {}
+    for st in (r for r in records if ": " not in r["label"]):
+        parts = [r for r in records if r["label"].startswith(st["label"] + ": ")]
+        if parts:
+            out[st["label"]] = st["seconds"] - sum(
+                r["seconds"] for r in parts if not r["label"].split(": ", 1)[1].startswith(" "))
+    return out
+
+
 def print_breakdown(records: list[dict], stages_total: float) -> None:
     """The table: seconds (share of the run's stages) and RSS in -> peak -> out (MiB) per
     stage, its parts under it and what its parts leave unexplained ("other")."""
@@ -181,6 +216,4 @@ def print_breakdown(records: list[dict], stages_total: float) -> None:
         for r in parts:
             line("  " + r["label"].split(": ", 1)[1], str(r["calls"]), r["seconds"], r)
         if parts:
-            top = sum(r["seconds"] for r in parts
-                      if not r["label"].split(": ", 1)[1].startswith(" "))
-            line("  other", "", st["seconds"] - top, None)
+            line("  other", "", remainders(records)[st["label"]], None)

@@ -57,7 +57,13 @@ from rangeproc.estimation.fading import (
 )
 from rangeproc.estimation.kernels import N_OBSERVED, predict_epoch, specialise_predict
 from rangeproc.estimation.linalg import pack_n
-from rangeproc.estimation.moments import EKF, UKF, row_moments, specialise_ukf
+from rangeproc.estimation.moments import (
+    EKF,
+    UKF,
+    ekf_row_moments,
+    row_moments,
+    specialise_ukf,
+)
 from rangeproc.estimation.spline_filter import (
     SPL_JERK_SPAN,
     SPL_MAX_RATIO,
@@ -135,6 +141,7 @@ def _specialise(family: Family, n_state: int) -> Callable:
         UKF if family.update == "ukf" else EKF)
     FAST = METHOD == EKF and n_state == fu.N  # the fused fast path for the common rows
     UFAST = METHOD == UKF and n_state == fu.N  # the unscented update at the fixed size
+    EKF_ONLY = METHOD == EKF                 # the unscented moments are not compiled in
     FIXED = n_state == N_KINEMATIC           # the fixed-size prediction
     N_STATE = n_state
 
@@ -268,6 +275,10 @@ def _specialise(family: Family, n_state: int) -> Callable:
                         if not _ukf_fixed(model[i], z[i], s[i], sv[i], Qr[i], x, P, idx, m,
                                           ukf, L, Zs, xsig, h, H, y6, y, C, Z):
                             raise FloatingPointError("covariance not positive definite in UKF")
+                    elif EKF_ONLY:
+                        ekf_row_moments(model[i], z[i], s[i], sv[i], Qr[i], x,
+                                        x_lin[k] if use_lin else x, use_lin, P, idx, m, h, H,
+                                        y6, y, C, Z, Hs, sig_row)
                     else:
                         row_moments(meth, model[i], z[i], s[i], sv[i], Qr[i], x,
                                     x_lin[k] if use_lin else x, use_lin, P, idx, m, ukf, L,

@@ -7,7 +7,7 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
    the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
 2. model-conditioned prediction with the model's own transition and process noise;
 3. the epoch's rows update every model by the same compiled update as the single filter
-   (``moments.row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
+   (``moments.ekf_row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
    gating per row, then per component), accumulating each model's innovation likelihood;
 4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination.
 
@@ -53,7 +53,7 @@ from rangeproc.estimation.divergence import (
     reset_covariance,
 )
 from rangeproc.estimation.update import row_workspace, update_row
-from rangeproc.estimation.moments import EKF, row_moments
+from rangeproc.estimation.moments import ekf_row_moments
 from rangeproc.estimation import fast_update as fu
 from rangeproc.estimation.kernels import predict_epoch, specialise_predict
 from rangeproc.estimation.linalg import pack_n
@@ -147,7 +147,6 @@ def _specialise(n_state: int) -> Callable:
         (f_idx, f_sel, f_sig_row, f_sig, f_y, f_yw, f_sdiag, f_C, f_Z, f_Hs, f_S, f_HP, f_Kt,
          f_AP, f_APHt, f_winv, f_dinv) = fu.fast_workspace()
         wmix = np.empty(r)
-        ukf = np.zeros(3)
         use_lin = x_lin.shape[0] == E
         consecutive = np.zeros(np.max(sensor) + 1 if N > 0 else 1, dtype=np.int64)
         n_resets = 0
@@ -225,9 +224,9 @@ def _specialise(n_state: int) -> Callable:
                     else:
                         for a in range(m):
                             sig_row[a] = sigma[i, idx[a]]
-                        row_moments(EKF, model[i], z[i], s[i], sv[i], Qr[i], X[j],
-                                    x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m, ukf, L,
-                                    Zs, xsig, h, H, y6, y, C, Z, Hs, sig_row)
+                        ekf_row_moments(model[i], z[i], s[i], sv[i], Qr[i], X[j],
+                                        x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m,
+                                        h, H, y6, y, C, Z, Hs, sig_row)
                         val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
                                                               PP[j], gate, True, False, sel, sig,
                                                               yw, HP, S, Kt, AP, APHt, sdiag, ew,

@@ -302,6 +302,20 @@ ukf_moments = specialise_ukf(0, "never")
 
 
 @njit(cache=True, error_model="numpy")
+def ekf_row_moments(model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray,
+                    x: np.ndarray, x_lin: np.ndarray, use_lin: bool, P: np.ndarray,
+                    idx: np.ndarray, m: int, h: np.ndarray, H: np.ndarray, y6: np.ndarray,
+                    y: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: np.ndarray,
+                    sig_row: np.ndarray) -> None:
+    """:func:`row_moments` of the EKF: :func:`ekf_moments` and the second-order error of its
+    linearisation added to the row's sigmas ``sig_row`` (:func:`add_linearisation_noise`).
+    Called directly where the method is known when compiling (the EKF's loops), so that the
+    unscented moments they never run are not compiled into them."""
+    ekf_moments(model, z, s, sv, Qr, x, x_lin, use_lin, P, idx, m, h, H, y6, y, C, Z, Hs)
+    add_linearisation_noise(model, sig_row, idx, m, x, s, Qr, P)
+
+
+@njit(cache=True, error_model="numpy")
 def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.ndarray,
                 Qr: np.ndarray, x: np.ndarray, x_lin: np.ndarray, use_lin: bool,
                 P: np.ndarray, idx: np.ndarray, m: int, ukf: np.ndarray, L: np.ndarray,
@@ -312,8 +326,8 @@ def row_moments(method: int, model: int, z: np.ndarray, s: np.ndarray, sv: np.nd
     EKF also the second-order error of its linearisation added to the row's sigmas
     ``sig_row`` (:func:`add_linearisation_noise`; the unscented transform carries it)."""
     if method == EKF:
-        ekf_moments(model, z, s, sv, Qr, x, x_lin, use_lin, P, idx, m, h, H, y6, y, C, Z, Hs)
-        add_linearisation_noise(model, sig_row, idx, m, x, s, Qr, P)
+        ekf_row_moments(model, z, s, sv, Qr, x, x_lin, use_lin, P, idx, m, h, H, y6, y, C, Z,
+                        Hs, sig_row)
     elif not ukf_moments(model, z, s, sv, Qr, x, P, idx, m, ukf, L, Zs, xs, h, H, y6, y, C,
                          Z):
         raise FloatingPointError("covariance not positive definite in UKF")

@@ -131,9 +131,11 @@ def rts_smooth(epoch_t: np.ndarray, xf: np.ndarray, Pf: np.ndarray, q_steps: np.
     else:                         # written from the last epoch back; filtered values read
         xs = np.empty_like(xf)    # from xf, Pf (no copy of the history first)
         Ps = np.empty_like(Pf)
-        if E > 0:
-            xs[E - 1] = xf[E - 1]
-            Ps[E - 1] = Pf[E - 1]
+        if E > 0:                 # element loops: a row assignment compiles numba's
+            for i in range(n):    # shape-mismatch message (str of ints, 4 s a first run)
+                xs[E - 1, i] = xf[E - 1, i]
+            for i in range(Pf.shape[1]):
+                Ps[E - 1, i] = Pf[E - 1, i]
     em = np.zeros(E)
     P_f = np.empty((n, n))
     P_next = np.empty((n, n))

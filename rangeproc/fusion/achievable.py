@@ -81,7 +81,8 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
     fwd = run_filter(rows, prior, FilterSettings(np.full(7, np.inf)))
-    _, Ps, _ = rts_smooth(result.epoch_t, fwd.xf, fwd.Pf, result.q, False, True)
+    # fade and jerk given (None) as the passes give them: one compiled smoother for both
+    _, Ps, _ = rts_smooth(result.epoch_t, fwd.xf, fwd.Pf, result.q, False, True, None, None)
     var = packed_diagonal(Ps[result.grid], 0, 3)
     t = result.epoch_t[result.grid]
     var = var + packed_diagonal(spans_calibration_covariance(result.calibration, t), 0, 3)

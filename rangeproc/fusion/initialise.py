@@ -74,7 +74,23 @@ def prior_at(prior: Prior, t0: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 
-def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def fix_rows(batch: MeasurementBatch) -> np.ndarray:
+    """(M,) indices of the rows that fix position on their own (:func:`position_fixes`),
+    without computing the positions: GPS rows with a full position and radar/theodolite rows
+    with range, azimuth and elevation, or, where fewer than two such rows exist, rows with
+    range and azimuth but no elevation (a 2-D radar's plots in its horizontal plane)."""
+    z = batch.z
+    cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
+    sph = (batch.model == SPHERICAL) & np.isfinite(z[:, :3]).all(axis=1)
+    fixes = cart | sph
+    if np.count_nonzero(fixes) < 2:
+        fixes |= ((batch.model == SPHERICAL) & np.isfinite(z[:, :2]).all(axis=1)
+                  & ~np.isfinite(z[:, 2]))
+    return np.flatnonzero(fixes)
+
+
+def position_fixes(batch: MeasurementBatch, rows: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows that fix position on their own and the fixed positions.
 
     Returns (row indices (M,), positions (M, 3) range ENU m, 1-sigma (M,) m, a scalar
@@ -84,19 +100,14 @@ def position_fixes(batch: MeasurementBatch) -> tuple[np.ndarray, np.ndarray, np.
     radar: a navigation radar's or a lidar's plots) are taken in the sensor's horizontal
     plane (elevation 0 ± :data:`PLANE_ELEVATION_SIGMA`): a start that the measured range and
     azimuth then correct, the height staying as uncertain as the assumption makes it.
+    ``rows``: some of :func:`fix_rows`' indices (the track start's first seconds), whose
+    positions alone are computed (each row's values are those of the call over every fix).
     """
-    z = batch.z
-    cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
-    sph = (batch.model == SPHERICAL) & np.isfinite(z[:, :3]).all(axis=1)
-    plane = np.zeros_like(sph)
-    if np.count_nonzero(cart | sph) < 2:
-        plane = ((batch.model == SPHERICAL) & np.isfinite(z[:, :2]).all(axis=1)
-                 & ~np.isfinite(z[:, 2]))
-    rows = np.flatnonzero(cart | sph | plane)
+    rows = fix_rows(batch) if rows is None else rows
+    zc = batch.z[rows]                       # a copy (index array)
+    is_cart = batch.model[rows] == CARTESIAN
+    is_plane = ~is_cart & ~np.isfinite(zc[:, 2])    # a fix without elevation: 2-D plane
     local = np.empty((len(rows), 3))
-    zc = z[rows].copy()
-    is_cart = cart[rows]
-    is_plane = plane[rows]
     zc[is_plane, 2] = 0.0
     local[is_cart] = zc[is_cart, :3]
     r, az, el = zc[~is_cart, 0], zc[~is_cart, 1], zc[~is_cart, 2]
@@ -154,7 +165,7 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     point among the first fixes does not bias the start. Raises DataError when no sensor
     gives position fixes (angle-only or range-rate-only data cannot start a track alone).
     """
-    rows, pos, acc = position_fixes(batch)
+    rows = fix_rows(batch)
     if len(rows) < 2:
         present = sorted({batch.sensor_ids[i] for i in np.unique(batch.sensor)})
         raise NoPositionFix(f"cannot initialise the track: no position fixes from sensors "
@@ -165,8 +176,8 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     if take.sum() < n_min:
         take = np.arange(len(t)) < n_min
     tt = t[take] - t0
-    pp = pos[take]
-    w = 1.0 / np.maximum(acc[take], 1e-3) ** 2
+    _, pp, acc = position_fixes(batch, rows[take])    # only the fixes the start fits
+    w = 1.0 / np.maximum(acc, 1e-3) ** 2
     A = np.column_stack([np.ones_like(tt), tt])
     coef = np.zeros((2, 3))
     for _ in range(10):
@@ -174,11 +185,11 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
         coef = np.linalg.lstsq(Aw, pp * np.sqrt(w)[:, None], rcond=None)[0]
         resid = np.linalg.norm(pp - A @ coef, axis=1) * np.sqrt(w)
         huber = np.where(resid <= 2.0, 1.0, 2.0 / np.maximum(resid, 1e-12))
-        w = huber / np.maximum(acc[take], 1e-3) ** 2
-    spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc[take], 1e-3)
+        w = huber / np.maximum(acc, 1e-3) ** 2
+    spread = np.linalg.norm(pp - A @ coef, axis=1) / np.maximum(acc, 1e-3)
     sp, sv, sa = PRIOR_SIGMA
     if len(tt) >= 3 and spread.max() > LEANED_START_SIGMAS:
-        a = np.maximum(acc[take], 1e-3)
+        a = np.maximum(acc, 1e-3)
         robust, scale = _redescending_line(tt, pp, a, coef)
         off = np.linalg.norm(pp - A @ robust, axis=1)
         # gross: far off the line beyond its own accuracy and beyond the other fixes' spread
@@ -193,7 +204,7 @@ def initial_state(batch: MeasurementBatch, t0: float, *, window: float = 4.0,
     x0[0:3] = coef[0]
     x0[3:6] = coef[1] if len(tt) > 1 and np.ptp(tt) > 0 else 0.0
     P0 = np.zeros((n_state, n_state))
-    P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc[take])) ** 2
+    P0[np.arange(3), np.arange(3)] = sp ** 2 + float(np.median(acc)) ** 2
     P0[np.arange(3, 6), np.arange(3, 6)] = sv ** 2
     P0[np.arange(6, 9), np.arange(6, 9)] = sa ** 2
     return x0, P0

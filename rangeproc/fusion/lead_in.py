@@ -24,7 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.fusion.initialise import Prior, position_fixes
+from rangeproc.fusion.initialise import Prior, fix_rows
 from rangeproc.models.measurement import SPHERICAL
 from rangeproc.models.motion import N_KINEMATIC
 
@@ -38,7 +38,7 @@ def lead_in_rows(batch: MeasurementBatch) -> int:
     :data:`LEAD_IN_S` seconds before it, else 0 (also when the batch has under two fixes:
     its start is then the prior's or impossible, not a lead-in). Rows at the fix's time
     belong to the rest."""
-    rows = position_fixes(batch)[0]
+    rows = fix_rows(batch)
     if len(rows) < 2:
         return 0
     t_fix = batch.t[rows[0]]

@@ -148,3 +148,79 @@ def test_a_turning_object_keeps_its_huber_start(monkeypatch, plot_batch) -> None
 
     assert starts(scale_counts=True) == 0
     assert starts(scale_counts=False) >= 2
+
+
+def _mixed_batch(seed: int, n: int, with_elevation: bool):
+    """``n`` rows over 600 s: GPS positions (Cartesian) and radar plots from a moving site
+    with turned axes, some without elevation, some without range (not fixes)."""
+    from scipy.spatial.transform import Rotation
+
+    from rangeproc.fusion.batch import MeasurementBatch
+    from rangeproc.models.measurement import CARTESIAN, SPHERICAL
+
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 600.0, n))
+    model = np.where(rng.random(n) < 0.3, CARTESIAN, SPHERICAL)
+    z = np.full((n, 6), np.nan)
+    z[:, :3] = rng.normal(size=(n, 3)) * [5_000.0, 1.0, 0.3] + [20_000.0, 3.0, 0.4]
+    if not with_elevation:                           # a 2-D radar: fixes in its plane
+        z[model == SPHERICAL, 2] = np.nan
+        model[model == CARTESIAN] = SPHERICAL
+    z[rng.random(n) < 0.1, 0] = np.nan               # angles alone: no fix
+    sigma = rng.uniform(0.5, 30.0, size=(n, 6))
+    return MeasurementBatch(t, model, z, sigma, rng.normal(size=(n, 3)) * 100.0,
+                            rng.normal(size=(n, 3)), Rotation.random(n, rng).as_matrix(),
+                            np.zeros(n, np.int64), np.arange(n), np.full(n, -1),
+                            np.full(n, -1), ("S1",))
+
+
+def test_fixes_of_some_rows_are_those_of_all_rows() -> None:
+    """``position_fixes`` of some fix rows gives, bit for bit, those rows' values of the call
+    over every fix (the track start computes only its first seconds' fixes)."""
+    from rangeproc.fusion.initialise import fix_rows, position_fixes
+
+    for seed, n, elevation in ((1, 5_001, True), (2, 777, True), (3, 4_097, False)):
+        batch = _mixed_batch(seed, n, elevation)
+        rows, pos, acc = position_fixes(batch)
+        assert np.array_equal(rows, fix_rows(batch)) and len(rows) > 100
+        for pick in (np.arange(37), np.arange(len(rows) // 2, len(rows)),
+                     np.sort(np.random.default_rng(seed).choice(len(rows), 301, False))):
+            sub_rows, sub_pos, sub_acc = position_fixes(batch, rows[pick])
+            assert np.array_equal(sub_rows, rows[pick])
+            assert np.array_equal(sub_pos, pos[pick]) and np.array_equal(sub_acc, acc[pick])
+
+
+def test_start_from_its_first_fixes_equals_the_start_from_every_fix(monkeypatch) -> None:
+    """``initial_state`` computes the positions of the fixes it fits only (its first
+    ``window`` seconds, or ``n_min`` fixes): the same start, bit for bit, as from every
+    fix's position taken and cut to those (the old path), with far fewer positions."""
+    from rangeproc.fusion import initialise
+
+    real = initialise.position_fixes
+    sizes = []
+
+    def every_fix(batch, rows=None):   # the old path: every fix, then its first seconds
+        every, pos, acc = real(batch)
+        t = batch.t[every]
+        take = t <= t[0] + window
+        if take.sum() < n_min:
+            take = np.arange(len(t)) < n_min
+        return every[take], pos[take], acc[take]
+
+    def counted(batch, rows=None):
+        sizes.append(len(rows))
+        return real(batch, rows)
+
+    for seed, n, elevation in ((4, 6_000, True), (5, 3_000, False)):
+        batch = _mixed_batch(seed, n, elevation)
+        for window, n_min in ((4.0, 5), (0.01, 5), (4.0, 400)):
+            monkeypatch.setattr(initialise, "position_fixes", counted)
+            new = initialise.initial_state(batch, float(batch.t[0]), window=window,
+                                           n_min=n_min)
+            monkeypatch.setattr(initialise, "position_fixes", every_fix)
+            old = initialise.initial_state(batch, float(batch.t[0]), window=window,
+                                           n_min=n_min)
+            assert all(np.array_equal(a, b) for a, b in zip(new, old))
+    # the point of the change: a few dozen fixes, not the thousands of the batch
+    assert max(sizes) <= 400 and min(sizes) >= 5
+    assert max(sizes) < len(initialise.fix_rows(_mixed_batch(5, 3_000, False))) / 2
