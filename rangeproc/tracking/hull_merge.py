@@ -84,22 +84,24 @@ def spread_update(live: list, owner: np.ndarray, rows: np.ndarray, p: np.ndarray
     chi-square ``gate`` of its position (the plot's noise and the track's covariance, east
     and north; module docstring). p (N, 3) m, R (N, 3, 3) m^2."""
     held = np.flatnonzero(owner >= 0)
-    if held.size == 0:
-        return
-    member: dict[int, list[int]] = {int(b): [int(rows[b])] for b in held}
-    for a in np.flatnonzero(owner < 0):
-        i = int(rows[a])
-        dp = p[i, :2] - p[rows[held], :2]                                   # (h, 2)
-        C = R[i, :2, :2] + R[rows[held], :2, :2]
-        m2 = np.einsum("hi,hi->h", dp, np.linalg.solve(C, dp[..., None])[..., 0])
-        b = int(held[np.argmin(m2)])
+    free = np.flatnonzero(owner < 0)
+    nearest = np.zeros(free.size, dtype=np.int64)
+    if held.size and free.size:
+        dp = p[rows[free], None, :2] - p[rows[held], :2][None]                 # (f, h, 2)
+        C = R[rows[free], None, :2, :2] + R[rows[held], :2, :2][None]
+        m2 = np.einsum("fhi,fhi->fh", dp, np.linalg.solve(C, dp[..., None])[..., 0])
+        nearest = held[np.argmin(m2, axis=1)]
+    for b in held:
         tr = live[owner[b]]
-        x, P = _combined(tr, slice(0, 2))
-        d = p[i, :2] - x
-        if d @ np.linalg.solve(R[i, :2, :2] + P, d) <= gate:
-            member[b].append(i)
-    for b, m in member.items():
-        live[owner[b]].hull.add(p[m, :2], R[m, :2, :2])
+        mine = rows[free[nearest == b]]
+        if mine.size:
+            x, P = _combined(tr, slice(0, 2))
+            d = p[mine, :2] - x
+            S = R[mine, :2, :2] + P
+            mine = mine[np.einsum("fi,fi->f", d, np.linalg.solve(S, d[..., None])[..., 0])
+                        <= gate]
+        member = np.concatenate([[rows[b]], mine]).astype(np.int64)
+        tr.hull.add(p[member, :2], R[member, :2, :2])
 
 
 def _candidates(a: HullTrack, b: HullTrack, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,

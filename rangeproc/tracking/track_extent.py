@@ -35,12 +35,14 @@ class HullSpread:
     their scan's mean (east, north), ``noise`` (2, 2) m^2 the sum of ``n - 1`` times the mean
     stated noise of a scan's ``n`` returns, ``dof`` the sum of ``n - 1``; ``since``, for another
     track (by ``id``) that may hold the same hull, the time (s) from which it has and the
-    returns counted between the two (``tracking.hull_merge``)."""
+    returns counted between the two (``tracking.hull_merge``); ``cached`` the last
+    :meth:`extent` (None: to be computed)."""
 
     scatter: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     noise: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     dof: float = 0.0
     since: dict[int, tuple[float, int, int]] = field(default_factory=dict)
+    cached: tuple[np.ndarray | None] | None = None
 
     def add(self, q: np.ndarray, R: np.ndarray) -> None:
         """One scan of the track: its returns' horizontal points q (n, 2) m (n >= 1, its own
@@ -53,15 +55,19 @@ class HullSpread:
         self.scatter = keep * self.scatter + dev.T @ dev
         self.noise = keep * self.noise + (n - 1) * R.mean(axis=0)
         self.dof = keep * self.dof + (n - 1)
+        self.cached = None
 
     def extent(self) -> np.ndarray | None:
         """(2, 2) m^2 the hull's covariance, east and north: the pooled scatter less the
         stated noise (its negative part, a noise stated larger than the returns scatter,
         left out), or None before ``SPREAD_DOF``."""
-        if self.dof < SPREAD_DOF:
-            return None
-        w, V = np.linalg.eigh((self.scatter - self.noise) / self.dof)
-        return (V * np.maximum(w, 0.0)) @ V.T
+        if self.cached is None:
+            if self.dof < SPREAD_DOF:
+                self.cached = (None,)
+            else:
+                w, V = np.linalg.eigh((self.scatter - self.noise) / self.dof)
+                self.cached = ((V * np.maximum(w, 0.0)) @ V.T,)
+        return self.cached[0]
 
 
 class TrackExtent(Protocol):
