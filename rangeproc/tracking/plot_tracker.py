@@ -54,7 +54,9 @@ plots, their positions), in the range ENU frame.
   - *Extent* (:func:`extent_update`): a ship seen from the side gives plots anywhere along
     its hull, further off its centre than the sensor's stated noise; each track carries an
     extent variance, estimated from its own innovations by covariance matching, added to its
-    plots' noise. A point target's stays near 0.
+    plots' noise. A point target's stays near 0. For a sensor that gives several returns a
+    scan, the hull is measured from the spread of its returns in each scan and two tracks
+    on one hull are merged (``tracking.hull_merge``).
   - *Several returns in one scan* (:func:`_other_returns`): a lidar gives several returns of
     one hull per scan; a plot no confirmed track took, within the gate of a plot a confirmed
     track took in the same scan (the two apart by their noise and twice the track's extent),
@@ -86,7 +88,9 @@ from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
 from rangeproc.tracking.retrodiction import backward_labels, retrodicted
 from rangeproc.tracking.stationary import moving_tracks
-from rangeproc.tracking.track_extent import EXTENT_MEMORY, extent_in_use, extent_update
+from rangeproc.tracking.hull_merge import hull_tracks
+from rangeproc.tracking.track_extent import (EXTENT_MEMORY, HullSpread, extent_in_use,
+                                             extent_update, pair_close)
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -214,8 +218,9 @@ class _ImmTrack:
     [p, v] ENU, covariances Ps (M, 6, 6), model probabilities mu (M,), all at time t (s);
     the clock (scans or revisits, :class:`PlotTiming`) of its first and last plot; its
     score (log-likelihood ratio object / clutter) and the best score it reached; its extent
-    variance (m^2 per measured axis, :func:`extent_update`, signed) and the mean noise
-    variance of its innovations (m^2 per measured axis, the extent in use left out)."""
+    variance (m^2 per measured axis, :func:`extent_update`, signed), the mean noise
+    variance of its innovations (m^2 per measured axis, the extent in use left out) and the
+    spread of its returns within a scan (``track_extent.HullSpread``)."""
 
     xs: np.ndarray
     Ps: np.ndarray
@@ -229,6 +234,7 @@ class _ImmTrack:
     noise: float = 0.0
     confirmed: bool = False
     rows: list[int] = field(default_factory=list)
+    hull: HullSpread = field(default_factory=HullSpread)
 
 
 def _imm_predict(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, dt: np.ndarray
@@ -496,6 +502,8 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 taken[a] = True
                 owner[a] = j
         if further_returns:
+            live, owner = hull_tracks(live, owner, rows, p, R, float(t[rows[0]]), scan, gate,
+                                      planar)
             taken = _one_hull_each(live, owner, taken, rows, p, R, gate, planar)
             live, taken = _other_returns(live, owner, taken, rows, p, R, gate, planar)
         keep = []
@@ -515,24 +523,12 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     return label
 
 
-def _pair_close(tr: _ImmTrack | None, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,
-                Rb: np.ndarray, gate: float, axes: int) -> bool:
-    """Whether plots pa and pb (3,) m, covariances Ra, Rb (3, 3) m^2, can be two returns of
-    track ``tr``'s hull: apart by at most their noise and twice its extent in use (none
-    without a track), within the chi-square ``gate``."""
-    C = Ra + Rb
-    if tr is not None:
-        C[np.arange(axes), np.arange(axes)] += 2.0 * extent_in_use(tr, axes)
-    dp = pa - pb
-    return bool(dp @ np.linalg.solve(C, dp) <= gate)
-
-
 def _one_hull_each(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
                    rows: np.ndarray, p: np.ndarray, R: np.ndarray, gate: float,
                    planar: bool) -> np.ndarray:
     """The plots of scan ``rows`` that start no track, for a sensor that gives several
     returns of one hull a scan: ``taken`` (A,) with, in addition, each plot no track took
-    that lies within the pair gate (:func:`_pair_close`) of a plot of the scan that a
+    that lies within the pair gate (:func:`pair_close`) of a plot of the scan that a
     tentative track took or that starts a track (the scan's untaken plots in order, the
     first of each group starting it). Two returns of one hull in the first scans would
     otherwise start two tracks that each take one return a scan, are confirmed together and
@@ -543,9 +539,9 @@ def _one_hull_each(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
     tentative = [b for b in np.flatnonzero(owner >= 0) if not live[owner[b]].confirmed]
     starters: list[int] = []
     for a in np.flatnonzero(~taken):
-        beside = (any(_pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]],
+        beside = (any(pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]],
                                   R[rows[b]], gate, axes) for b in tentative)
-                  or any(_pair_close(None, p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
+                  or any(pair_close(None, p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
                                      gate, axes) for b in starters))
         if beside:
             out[a] = True
@@ -572,7 +568,7 @@ def _other_returns(live: list[_ImmTrack], owner: np.ndarray, taken: np.ndarray,
     dropped: set[int] = set()
     for a in np.flatnonzero(~np.isin(np.arange(rows.size), confirmed)):
         for b in confirmed:
-            if _pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
+            if pair_close(live[owner[b]], p[rows[a]], p[rows[b]], R[rows[a]], R[rows[b]],
                            gate, axes):
                 claimed[a] = True
                 if owner[a] >= 0:

@@ -1,7 +1,11 @@
 """A plot track's extent: the variance a hull adds to its plots' noise, estimated from the
-track's own innovations by covariance matching (``tracking.plot_tracker``, *Extent*)."""
+track's own innovations by covariance matching (``tracking.plot_tracker``, *Extent*), and, for
+a sensor that gives several returns of one object a scan, from the spread of the returns of
+the object in each scan (:class:`HullSpread`), which spans the hull where each track, taking
+one end of it, sees its own innovations small."""
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -13,16 +17,68 @@ EXTENT_MEMORY = 10
 #: many standard errors of the mean, the innovations' own scatter (:func:`extent_in_use`):
 #: a point target's scatters about 0 and would otherwise widen its gate to clutter.
 EXTENT_SIGNIFICANCE = 2.0
+#: A track's hull spread (:class:`HullSpread`) weighs its scans with this memory (scans, an
+#: exponential forgetting ``1 - 1 / SPREAD_MEMORY`` a scan): a ship that turns shows another
+#: part of its hull.
+SPREAD_MEMORY = 50
+#: Returns beyond the first of each scan (after the forgetting) a track's hull spread needs
+#: before it is used (:meth:`HullSpread.extent`): the estimate of a 2 x 2 covariance from 20
+#: degrees of freedom is within about a third of its value.
+SPREAD_DOF = 20.0
+
+
+@dataclass(slots=True)
+class HullSpread:
+    """The spread of a track's returns within one scan (the plot it takes and the plots no
+    track took beside it, :func:`pair_close`), pooled over its scans with the forgetting of
+    ``SPREAD_MEMORY``: ``scatter`` (2, 2) m^2 the summed outer products of the returns about
+    their scan's mean (east, north), ``noise`` (2, 2) m^2 the sum of ``n - 1`` times the mean
+    stated noise of a scan's ``n`` returns, ``dof`` the sum of ``n - 1``; ``since``, for another
+    track (by ``id``) that may hold the same hull, the time (s) from which it has and the
+    returns counted between the two (``tracking.hull_merge``); ``cached`` the last
+    :meth:`extent` (None: to be computed)."""
+
+    scatter: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    noise: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    dof: float = 0.0
+    since: dict[int, tuple[float, int, int]] = field(default_factory=dict)
+    cached: tuple[np.ndarray | None] | None = None
+
+    def add(self, q: np.ndarray, R: np.ndarray) -> None:
+        """One scan of the track: its returns' horizontal points q (n, 2) m (n >= 1, its own
+        plot among them) with stated noises R (n, 2, 2) m^2. The pooled within-scan covariance
+        (Koch 2008's scatter) of points ``hull + noise`` has the expectation
+        ``(n - 1) (H + mean R)`` a scan, H the hull's (return_spread's estimator)."""
+        keep = 1.0 - 1.0 / SPREAD_MEMORY
+        n = q.shape[0]
+        dev = q - q.mean(axis=0)
+        self.scatter = keep * self.scatter + dev.T @ dev
+        self.noise = keep * self.noise + (n - 1) * R.mean(axis=0)
+        self.dof = keep * self.dof + (n - 1)
+        self.cached = None
+
+    def extent(self) -> np.ndarray | None:
+        """(2, 2) m^2 the hull's covariance, east and north: the pooled scatter less the
+        stated noise (its negative part, a noise stated larger than the returns scatter,
+        left out), or None before ``SPREAD_DOF``."""
+        if self.cached is None:
+            if self.dof < SPREAD_DOF:
+                self.cached = (None,)
+            else:
+                w, V = np.linalg.eigh((self.scatter - self.noise) / self.dof)
+                self.cached = ((V * np.maximum(w, 0.0)) @ V.T,)
+        return self.cached[0]
 
 
 class TrackExtent(Protocol):
     """What :func:`extent_in_use` reads of a plot track: its plots ``rows``, the signed mean
     of its extent ``extent`` and the mean noise variance ``noise`` of its plots (m^2 per
-    measured axis)."""
+    measured axis); the spread of its returns within a scan ``hull``."""
 
     rows: list
     extent: float
     noise: float
+    hull: HullSpread
 
 
 def extent_update(extent: float, n: int, c: np.ndarray, d: np.ndarray, S: np.ndarray,
@@ -68,3 +124,28 @@ def extent_in_use(tr: TrackExtent, axes: int) -> float:
         return 0.0
     se = (tr.noise + tr.extent) * np.sqrt(2.0 / (axes * n))
     return tr.extent if tr.extent > EXTENT_SIGNIFICANCE * se else 0.0
+
+
+def hull_extent(tr: TrackExtent, axes: int) -> np.ndarray:
+    """(3, 3) m^2 the covariance of a return of track ``tr`` about the point it follows: its
+    hull spread (:meth:`HullSpread.extent`, east and north) where measured, else its extent in
+    use (:func:`extent_in_use`) on each of the ``axes`` measured axes."""
+    E = np.zeros((3, 3))
+    H = tr.hull.extent()
+    if H is None:
+        E[np.arange(axes), np.arange(axes)] = extent_in_use(tr, axes)
+    else:
+        E[:2, :2] = H
+    return E
+
+
+def pair_close(tr: TrackExtent | None, pa: np.ndarray, pb: np.ndarray, Ra: np.ndarray,
+               Rb: np.ndarray, gate: float, axes: int) -> bool:
+    """Whether plots pa and pb (3,) m, covariances Ra, Rb (3, 3) m^2, can be two returns of
+    track ``tr``'s hull: apart by at most their noise and twice its extent
+    (:func:`hull_extent`; none without a track), within the chi-square ``gate``."""
+    C = Ra + Rb
+    if tr is not None:
+        C = C + 2.0 * hull_extent(tr, axes)
+    dp = pa - pb
+    return bool(dp @ np.linalg.solve(C, dp) <= gate)

@@ -7,6 +7,7 @@ import pytest
 
 import rangeproc.tracking.plot_tracker as pt
 from rangeproc.tracking.clutter_map import neighbour_share
+from rangeproc.tracking.track_extent import HullSpread
 
 def _mean_extent(update, spread: float, seed: int = 3) -> float:
     """Mean extent (m^2) a track reaches over 900 plots whose innovations scatter ``spread``
@@ -158,3 +159,97 @@ def test_two_returns_of_one_hull_from_the_first_scan_start_one_track(monkeypatch
     # the negative control: without the rule some hulls get two tracks (4 of 16)
     monkeypatch.setattr(pt, "_one_hull_each", lambda live, owner, taken, *a: taken)
     assert max(copies()) == 2
+
+
+def test_hull_spread_measures_the_returns_along_a_hull():
+    """A track's hull from its returns within each scan (``HullSpread``): 1-6 returns a scan
+    uniform along a 30 m hull lying east, stated noise 3 m per axis (a lidar's residual
+    spread against GNSS, far above its 0.5 m scatter across the hull): the hull's variance
+    along it, 30^2 / 12 - 9 = 66 m^2, and none across (the stated noise exceeds the returns'
+    scatter there); none before ``SPREAD_DOF``."""
+    rng = np.random.default_rng(1)
+    hull = HullSpread()
+    R = np.tile(np.diag([9.0, 9.0]), (6, 1, 1))
+    for k in range(300):
+        n = int(rng.integers(1, 7))
+        hull.add(np.c_[rng.uniform(-15.0, 15.0, n), rng.normal(0.0, 0.5, n)], R[:n])
+        if k == 0:
+            assert hull.extent() is None
+    E = hull.extent()
+    assert E[0, 0] == pytest.approx(66.0, rel=0.3)
+    assert abs(E[0, 1]) < 5.0 and E[1, 1] < 1.0
+
+
+def _long_hull(seed: int, half: float = 15.0):
+    """A 30 m hull moving east at 3 m/s seen 10 times a second for 30 s, stated noise 3 m
+    (planar): a return a scan from each end (the outer 40 % of each half: bow and stern give
+    the strongest echoes) and 0-4 anywhere along it, so that its ends, 18-30 m apart, lie
+    beyond the gate of their noise from the first scan; a clutter plot a scan over 1 km^2.
+    (t, p, R, scan, truth): truth 0 the hull's plots, -1 clutter."""
+    rng = np.random.default_rng(seed)
+    t, p, scan, truth = [], [], [], []
+    for k in range(300):
+        centre = np.array([-40.0 + 0.3 * k, 100.0, 0.0])
+        along = [rng.uniform(0.6 * half, half), -rng.uniform(0.6 * half, half)]
+        for a in along + list(rng.uniform(-half, half, rng.integers(0, 5))):
+            p.append(centre + [a, rng.normal(0.0, 0.5), 0.0])
+            t.append(0.1 * k), scan.append(k), truth.append(0)
+        for _ in range(rng.poisson(1)):
+            p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
+            t.append(0.1 * k), scan.append(k), truth.append(-1)
+    n = len(t)
+    return (np.array(t), np.array(p), np.tile(np.diag([9.0, 9.0, 1.0]), (n, 1, 1)),
+            np.array(scan), np.array(truth))
+
+
+def test_a_hull_seen_at_both_ends_is_one_track(monkeypatch):
+    """A 30 m hull whose bow and stern, beyond the gate of their noise, each begin a track:
+    the returns between them, which no track takes, show the hull, and the two tracks are
+    merged into one (eight seeded scenes: one track each)."""
+    def copies() -> list[int]:
+        out = []
+        for seed in range(8):
+            t, p, R, scan, truth = _long_hull(seed)
+            out.append(_hull_tracks(pt.track_plots(t, p, R, scan, planar=True), truth))
+        return out
+    assert copies() == [1] * 8
+    # the negative control: with the hull from each track's own innovations alone, the bow
+    # and the stern keep a track each (8 of 8)
+    monkeypatch.setattr(pt, "hull_tracks", lambda live, owner, *a: (live, owner))
+    assert min(copies()) == 2
+
+
+def _two_boats(seed: int, placement: str):
+    """Two 12 m hulls 25 m apart (centre to centre), 2-4 returns a scan each, stated noise
+    3 m, 10 scans a second for 40 s: ``"beside"`` side by side at the same speed, ``"line"``
+    one behind the other at the same speed, ``"passing"`` on opposite courses 12 m apart.
+    (t, p, R, scan, truth): truth the hull's index, -1 clutter."""
+    rng = np.random.default_rng(seed)
+    start, velocity = {"beside": ([[-40.0, 100.0], [-40.0, 125.0]], [3.0, 3.0]),
+                       "line": ([[-60.0, 100.0], [-35.0, 100.0]], [3.0, 3.0]),
+                       "passing": ([[-60.0, 100.0], [60.0, 112.0]], [3.0, -3.0])}[placement]
+    t, p, scan, truth = [], [], [], []
+    for k in range(400):
+        for h in (0, 1):
+            centre = np.array([start[h][0] + velocity[h] * 0.1 * k, start[h][1], 0.0])
+            for a in rng.uniform(-6.0, 6.0, rng.integers(2, 5)):
+                p.append(centre + [a, rng.normal(0.0, 0.5), 0.0])
+                t.append(0.1 * k), scan.append(k), truth.append(h)
+        for _ in range(rng.poisson(1)):
+            p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
+            t.append(0.1 * k), scan.append(k), truth.append(-1)
+    n = len(t)
+    return (np.array(t), np.array(p), np.tile(np.diag([9.0, 9.0, 1.0]), (n, 1, 1)),
+            np.array(scan), np.array(truth))
+
+
+@pytest.mark.parametrize("placement", ["beside", "line", "passing"])
+def test_two_boats_near_each_other_keep_a_track_each(placement):
+    """Two boats 25 m apart (beside or behind each other) or passing 12 m apart: each keeps
+    its own one track; the hull measured from the returns is not the pair's."""
+    for seed in range(3):
+        t, p, R, scan, truth = _two_boats(seed, placement)
+        label = pt.track_plots(t, p, R, scan, planar=True)
+        own = [np.flatnonzero(np.bincount(label[(truth == h) & (label >= 0)]) >= 10)
+               for h in (0, 1)]
+        assert [len(o) for o in own] == [1, 1] and own[0][0] != own[1][0]
