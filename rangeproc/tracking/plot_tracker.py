@@ -32,8 +32,11 @@ plots, their positions), in the range ENU frame.
     sky; cells with plots in most scans are reported as stationary returns
     (``clutter_map.stationary_returns``). A moored boat is such a return while it lies
     still; when it leaves, its plots move out of its cell and it is tracked from there.
-  - *Existence* (the track score, a sequential probability ratio test): each plot a track
-    takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
+  - *Existence* (the track score, a sequential probability ratio test): a track's score
+    begins at the log of the new-object over the clutter density
+    (``tracking.initiation.new_track_score``: 0 with the general velocity bound, lower by the
+    velocity volume a narrower bound leaves out); each plot a track takes adds
+    ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
     ``log(1 - PD)`` (``DETECTION_PROBABILITY``); a track is confirmed when its score reaches
     ``CONFIRM_SCORE`` (false-track probability ``FALSE_TRACK_PROBABILITY``, missed-track
     probability ``MISSED_TRACK_PROBABILITY``) and ends when it falls ``DELETE_DROP`` below
@@ -84,6 +87,7 @@ from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
 from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
+from rangeproc.tracking.initiation import new_track_score
 from rangeproc.tracking.retrodiction import backward_labels, retrodicted
 from rangeproc.tracking.stationary import moving_tracks
 from rangeproc.tracking.track_extent import EXTENT_MEMORY, extent_in_use, extent_update
@@ -301,14 +305,19 @@ def _candidate_pairs(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, t_track: np
     return np.nonzero(near)
 
 
-def _start_imm(p: np.ndarray, R: np.ndarray, t: float, clock: float, row: int) -> _ImmTrack:
+def _start_imm(p: np.ndarray, R: np.ndarray, t: float, clock: float, row: int,
+               speed: float = INITIATION_SPEED, axes: int = 3) -> _ImmTrack:
+    """A tentative track on plot ``row`` (p (3,) m, R (3, 3) m^2, at t s and clock ``clock``)
+    whose velocity is unknown up to ``speed`` m/s (3 sigma), its score begun at
+    ``tracking.initiation.new_track_score`` (over the ``axes`` scored axes)."""
     M = len(MODEL_PSD)
     P = np.zeros((6, 6))
     P[:3, :3] = R
-    P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)   # 3 sigma = the speed bound
+    P[3:, 3:] = (speed / 3.0) ** 2 * np.eye(3)              # 3 sigma = the speed bound
     x = np.concatenate([p, np.zeros(3)])
+    score = new_track_score(speed, axes)
     return _ImmTrack(np.tile(x, (M, 1)), np.tile(P, (M, 1, 1)), np.full(M, 1.0 / M), t,
-                     clock, clock, rows=[row])
+                     clock, clock, score=score, best=score, rows=[row])
 
 
 @dataclass(frozen=True, slots=True)
@@ -446,9 +455,10 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                  clock: np.ndarray, planar: bool, stamp_sigma: float,
-                 further_returns: bool) -> np.ndarray:
-    """The tracker of :func:`track_plots` (same arguments, every plot usable, at least one):
-    the label per plot (N,). With ``further_returns`` (a sensor that gives several returns
+                 further_returns: bool, speed: float = INITIATION_SPEED) -> np.ndarray:
+    """The tracker of :func:`track_plots` (same arguments, every plot usable, at least one),
+    new tracks' velocities bounded at ``speed`` m/s (:func:`_start_imm`): the label per plot
+    (N,). With ``further_returns`` (a sensor that gives several returns
     per object a scan), a plot no confirmed track took within the pair gate of a plot one
     took in the same scan is that object's further return and starts no track
     (:func:`_other_returns`)."""
@@ -507,7 +517,7 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
             (done if expired else keep).append(tr)
         live = keep
         for i in rows[~taken]:
-            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i)))
+            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i), speed, axes))
     done.extend(live)
     confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])
     for n, tr in enumerate(confirmed):
