@@ -32,8 +32,11 @@ plots, their positions), in the range ENU frame.
     sky; cells with plots in most scans are reported as stationary returns
     (``clutter_map.stationary_returns``). A moored boat is such a return while it lies
     still; when it leaves, its plots move out of its cell and it is tracked from there.
-  - *Existence* (the track score, a sequential probability ratio test): each plot a track
-    takes adds ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
+  - *Existence* (the track score, a sequential probability ratio test): a track's score
+    begins at the log of the new-object over the clutter density
+    (``tracking.initiation.new_track_score``: 0 with the general velocity bound, lower by the
+    velocity volume a narrower bound leaves out); each plot a track takes adds
+    ``log(PD * p(z | track) / clutter density at z)``, each missed scan (revisit)
     ``log(1 - PD)`` (``DETECTION_PROBABILITY``); a track is confirmed when its score reaches
     ``CONFIRM_SCORE`` (false-track probability ``FALSE_TRACK_PROBABILITY``, missed-track
     probability ``MISSED_TRACK_PROBABILITY``) and ends when it falls ``DELETE_DROP`` below
@@ -70,7 +73,8 @@ plots, their positions), in the range ENU frame.
   - *Stationary returns* (``tracking.stationary``): a confirmed track that never moved beyond
     one plot's noise (a quay's scatterers, a moored boat) is left as clutter.
   - *Retrodiction* (``tracking.retrodiction``): the same tracker run backward in time gives
-    each track the plots before its confirmation that the forward pass left as clutter.
+    each track the plots before its confirmation that the forward pass left as clutter;
+    where the passes exchange plots, the likelier grouping (``tracking.two_passes``).
   - *Time stamps*: a radar that stamps a whole scan with one time gives each plot a time up
     to a scan period off; that error, carried along the track's velocity, is part of the
     plot's noise (:attr:`PlotTiming.stamp_sigma`).
@@ -86,11 +90,12 @@ from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
 from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
-from rangeproc.tracking.retrodiction import backward_labels, retrodicted
+from rangeproc.tracking.initiation import new_track_score
 from rangeproc.tracking.stationary import moving_tracks
 from rangeproc.tracking.hull_merge import hull_tracks
 from rangeproc.tracking.track_extent import (EXTENT_MEMORY, HullSpread, extent_in_use,
                                              extent_update, pair_close)
+from rangeproc.tracking.two_passes import both_passes
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -307,14 +312,17 @@ def _candidate_pairs(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, t_track: np
     return np.nonzero(near)
 
 
-def _start_imm(p: np.ndarray, R: np.ndarray, t: float, clock: float, row: int) -> _ImmTrack:
+def _start_imm(p: np.ndarray, R: np.ndarray, t: float, clock: float, row: int,
+               speed: float = INITIATION_SPEED, axes: int = 3) -> _ImmTrack:
+    """A tentative track on plot ``row``, its speed up to ``speed`` m/s (3 sigma)."""
     M = len(MODEL_PSD)
     P = np.zeros((6, 6))
     P[:3, :3] = R
-    P[3:, 3:] = (INITIATION_SPEED / 3.0) ** 2 * np.eye(3)   # 3 sigma = the speed bound
+    P[3:, 3:] = (speed / 3.0) ** 2 * np.eye(3)              # 3 sigma = the speed bound
     x = np.concatenate([p, np.zeros(3)])
+    score = new_track_score(speed, axes)
     return _ImmTrack(np.tile(x, (M, 1)), np.tile(P, (M, 1, 1)), np.full(M, 1.0 / M), t,
-                     clock, clock, rows=[row])
+                     clock, clock, score=score, best=score, rows=[row])
 
 
 @dataclass(frozen=True, slots=True)
@@ -441,22 +449,21 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
         several = several_returns(p, R, scan, planar)
 
     def tracker(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
-                clock: np.ndarray) -> np.ndarray:
-        return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several)
-    label = tracker(t, p, R, scan, clock)
+                clock: np.ndarray, *rest: object) -> np.ndarray:
+        return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several, *rest)
     if not retrodict:
-        return label
-    label = retrodicted(label, backward_labels(tracker, t, p, R, scan, clock), clock)
-    return moving_tracks(label, p, R, planar)
+        return tracker(t, p, R, scan, clock)
+    return moving_tracks(both_passes(tracker, t, p, R, scan, clock), p, R, planar)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                  clock: np.ndarray, planar: bool, stamp_sigma: float,
-                 further_returns: bool) -> np.ndarray:
-    """The tracker of :func:`track_plots` (same arguments, every plot usable, at least one):
-    the label per plot (N,). With ``further_returns`` (a sensor that gives several returns
-    per object a scan), a plot no confirmed track took within the pair gate of a plot one
-    took in the same scan is that object's further return and starts no track
+                 further_returns: bool, speed: float = INITIATION_SPEED,
+                 scores: list | None = None) -> np.ndarray:
+    """The tracker of :func:`track_plots` (arguments of ``tracking.two_passes.Tracker``,
+    every plot usable, at least one): the label per plot (N,). With ``further_returns``
+    (several returns per object a scan), a plot no confirmed track took within the pair gate
+    of a plot one took in the same scan is that object's further return and starts no track
     (:func:`_other_returns`)."""
     label = np.full(t.size, -1, dtype=np.int64)
     axes = 2 if planar else 3
@@ -515,11 +522,12 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
             (done if expired else keep).append(tr)
         live = keep
         for i in rows[~taken]:
-            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i)))
+            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i), speed, axes))
     done.extend(live)
     confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])
     for n, tr in enumerate(confirmed):
         label[np.asarray(tr.rows)] = n
+    (scores if scores is not None else []).extend(tr.score for tr in confirmed)
     return label
 
 
