@@ -71,12 +71,21 @@ def _hull_scans(returns: int, seed: int = 4):
     ``returns`` plots a scan along its side, and a clutter plot a scan over 1 km^2.
     (t, p, R, scan, truth): truth 0 the hull's plots, -1 clutter."""
     rng = np.random.default_rng(seed)
+    return _hull_scene(rng, lambda k: [
+        (np.array([0.8 * k + rng.uniform(-10.0, 10.0), 80.0 + rng.normal(0.0, 0.5), 0.0]), 0)
+        for _ in range(rng.integers(1, returns + 1))])
+
+
+def _hull_scene(rng: np.random.Generator, returns, scans: int = 300):
+    """``scans`` scans 0.1 s apart; scan k's returns of the hulls are ``returns(k)``, a list
+    of (position (3,) m, the hull's index), with a clutter plot a scan (Poisson mean 1) over
+    1 km^2; stated noise 3 m, planar. (t, p, R, scan, truth): truth the hull's index, -1
+    clutter."""
     t, p, scan, truth = [], [], [], []
-    for k in range(300):
-        centre = np.array([0.8 * k, 80.0, 0.0])
-        for _ in range(rng.integers(1, returns + 1)):
-            p.append(centre + [rng.uniform(-10.0, 10.0), rng.normal(0.0, 0.5), 0.0])
-            t.append(0.1 * k), scan.append(k), truth.append(0)
+    for k in range(scans):
+        for pos, h in returns(k):
+            p.append(pos)
+            t.append(0.1 * k), scan.append(k), truth.append(h)
         for _ in range(rng.poisson(1)):
             p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
             t.append(0.1 * k), scan.append(k), truth.append(-1)
@@ -187,19 +196,13 @@ def _long_hull(seed: int, half: float = 15.0):
     beyond the gate of their noise from the first scan; a clutter plot a scan over 1 km^2.
     (t, p, R, scan, truth): truth 0 the hull's plots, -1 clutter."""
     rng = np.random.default_rng(seed)
-    t, p, scan, truth = [], [], [], []
-    for k in range(300):
-        centre = np.array([-40.0 + 0.3 * k, 100.0, 0.0])
-        along = [rng.uniform(0.6 * half, half), -rng.uniform(0.6 * half, half)]
-        for a in along + list(rng.uniform(-half, half, rng.integers(0, 5))):
-            p.append(centre + [a, rng.normal(0.0, 0.5), 0.0])
-            t.append(0.1 * k), scan.append(k), truth.append(0)
-        for _ in range(rng.poisson(1)):
-            p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
-            t.append(0.1 * k), scan.append(k), truth.append(-1)
-    n = len(t)
-    return (np.array(t), np.array(p), np.tile(np.diag([9.0, 9.0, 1.0]), (n, 1, 1)),
-            np.array(scan), np.array(truth))
+
+    def returns(k: int) -> list[tuple[np.ndarray, int]]:
+        ends = [rng.uniform(0.6 * half, half), -rng.uniform(0.6 * half, half)]
+        along = ends + list(rng.uniform(-half, half, rng.integers(0, 5)))
+        return [(np.array([-40.0 + 0.3 * k + a, 100.0 + rng.normal(0.0, 0.5), 0.0]), 0)
+                for a in along]
+    return _hull_scene(rng, returns)
 
 
 def test_a_hull_seen_at_both_ends_is_one_track(monkeypatch):
@@ -228,19 +231,14 @@ def _two_boats(seed: int, placement: str):
     start, velocity = {"beside": ([[-40.0, 100.0], [-40.0, 125.0]], [3.0, 3.0]),
                        "line": ([[-60.0, 100.0], [-35.0, 100.0]], [3.0, 3.0]),
                        "passing": ([[-60.0, 100.0], [60.0, 112.0]], [3.0, -3.0])}[placement]
-    t, p, scan, truth = [], [], [], []
-    for k in range(400):
+    def returns(k: int) -> list[tuple[np.ndarray, int]]:
+        out = []
         for h in (0, 1):
             centre = np.array([start[h][0] + velocity[h] * 0.1 * k, start[h][1], 0.0])
             for a in rng.uniform(-6.0, 6.0, rng.integers(2, 5)):
-                p.append(centre + [a, rng.normal(0.0, 0.5), 0.0])
-                t.append(0.1 * k), scan.append(k), truth.append(h)
-        for _ in range(rng.poisson(1)):
-            p.append(rng.uniform([-500.0, -500.0, 0.0], [500.0, 500.0, 0.0]))
-            t.append(0.1 * k), scan.append(k), truth.append(-1)
-    n = len(t)
-    return (np.array(t), np.array(p), np.tile(np.diag([9.0, 9.0, 1.0]), (n, 1, 1)),
-            np.array(scan), np.array(truth))
+                out.append((centre + [a, rng.normal(0.0, 0.5), 0.0], h))
+        return out
+    return _hull_scene(rng, returns, scans=400)
 
 
 @pytest.mark.parametrize("placement", ["beside", "line", "passing"])
