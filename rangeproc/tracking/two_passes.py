@@ -9,11 +9,9 @@ that misses the track's own object, the track may take the new object's plot and
 from there; its own object's next plots then start another track, and the first track holds
 both objects. The forward pass meets this place at the new object's *first* plot, before the
 new object has a track; the backward pass meets it at the new object's *last* plot, with both
-objects' tracks confirmed there, and may group the plots the other way (Autoferry scenario 22,
-radar, with the new-track speed bound fitted to the boats: the forward track of boat 1 took
-boat 2's first plot, 21 m off, and followed boat 2; the backward pass kept the boats apart).
-The passes then exchange plots: a forward track shares its plots with two backward tracks
-(before and after the jump), one of which shares plots with a second forward track.
+objects' tracks confirmed there, and may group the plots the other way. The passes then
+exchange plots: a forward track shares its plots with two backward tracks (before and after
+the jump), one of which shares plots with a second forward track.
 
 Such an exchange is settled as a track-oriented multiple-hypothesis tracker settles it after
 seeing every scan (Reid 1979; Blackman and Popoli 1999, 16.3): the two groupings of the plots
@@ -25,7 +23,8 @@ least ``SETTLE_MARGIN``. Tracks are linked when they share at least
 ``tracking.retrodiction.MIN_SHARED`` plots; a linked set with two or more tracks on both sides
 is an exchange. A forward track that the backward pass only splits, or two that it only joins,
 is fragmentation, left to the segment-level search (``tracking.hypotheses``) as every track's
-gaps are: taking the backward pass's join gave Autoferry scenario 2 a third object.
+gaps are: a join taken from one sensor's plots alone would settle on one sensor's evidence
+what the segment search weighs across every sensor.
 """
 from __future__ import annotations
 
