@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -48,14 +49,41 @@ def _cut(out: Path, obj_match: str, t0: float, t1: float) -> None:
     f[~drop].to_parquet(out / "fused.parquet", index=False)
 
 
-def test_a_seed_is_scored_and_a_gap_and_a_small_sigma_cost(tmp_path: Path) -> None:
-    rows = bench.seed_rows(1, tmp_path, gnn=False)
+@pytest.fixture(scope="module")
+def seed10(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[dict], Path]:
+    """Seed 10 (its ferry heads east: yaw about 100 deg) simulated, run and scored
+    (rangeproc only); its rows and work folder."""
+    work = tmp_path_factory.mktemp("harbour")
+    return bench.seed_rows(10, work, gnn=False), work
+
+
+def test_the_baseline_reads_plots_in_the_ferry_frame(seed10) -> None:
+    """Stone Soup's plots (``bench/autoferry.read_plots``) of the harbour scene, where the
+    azimuth is measured from the ferry's deck and the sensors sit off the INS point, lie on
+    the hulls that ``truth_association.csv`` says they came from."""
+    import autoferry
+    scen = seed10[1] / "harbour_10"
+    plots = autoferry.read_plots(scen)
+    assoc = pd.read_csv(scen / "truth_association.csv", keep_default_na=False)
+    truth = pd.read_csv(scen / "truth.csv")
+    for obj in ("B1", "B2"):
+        rows = assoc[(assoc.target_id == obj) & (assoc.sensor == "RADAR")].row.to_numpy()
+        mine = (plots.sensor == "RADAR") & np.isin(plots.row, rows)
+        tb = truth[truth.target_id == obj]
+        he = np.interp(plots.t[mine], tb.time, tb.hull_e)
+        hn = np.interp(plots.t[mine], tb.time, tb.hull_n)
+        miss = np.hypot(plots.p[mine, 0] - he, plots.p[mine, 1] - hn)
+        assert mine.sum() > 10 and np.median(miss) < 20.0, (obj, np.median(miss))
+
+
+def test_a_seed_is_scored_and_a_gap_and_a_small_sigma_cost(seed10) -> None:
+    rows, tmp_path = seed10
     by = {r["object"]: r for r in rows}
     assert {r["role"] for r in rows} >= {"boat", "ship", "moored"}
     boat = by["B1"]
     assert boat["match"] is not None and boat["coverage_moving"] > 0.8
     assert boat["rmse_hull"] is not None and boat["antenna_offset_m"] > 0
-    scen, out = tmp_path / "harbour_1", tmp_path / "harbour_1" / "out"
+    scen, out = tmp_path / "harbour_10", tmp_path / "harbour_10" / "out"
     events = json.loads((scen / "truth_events.json").read_text())
     t0, t1 = events["objects"]["B1"]["moving"]
     _cut(out, boat["match"], t0 + 10.0, t0 + 10.0 + 0.5 * (t1 - t0))  # half the span blank
