@@ -6,12 +6,13 @@ STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SEEDS ?= 1 2 3 4 5 6
 MULTI_SEEDS ?= 1 2 3 4 5
 REG_SEEDS ?= 1 2 3 4 5
+HARBOUR_SEEDS ?= 1 2 3 4 5 6 7 8 9 10
 FILTERS ?= ekf
 SIGMA_FACTOR ?= 1
 FUZZ_CASES ?= 2000
 FUZZ_SEED ?= 1
 
-.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration calibration-mc plan-check range-rate multi autoferry sample-data lint clean
+.PHONY: install demo test docs fuzz bench bench-quick bench-campaign reproduce accuracy registration calibration-mc plan-check range-rate multi harbour autoferry sample-data lint clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -86,6 +87,11 @@ calibration-mc: $(STAMP)
 ## -> docs/measurements/multi.json.
 multi: $(STAMP)
 	$(BIN)/python bench/multi.py --seeds $(MULTI_SEEDS) --out docs/measurements/multi.json
+
+## harbour: the simulator's harbour kind over HARBOUR_SEEDS, rangeproc and Stone Soup's GNN scored on
+## each object's moving span (bench/harbour.py) -> docs/measurements/harbour.json.
+harbour: $(STAMP)
+	$(BIN)/python bench/harbour.py --gnn --seeds $(HARBOUR_SEEDS) --out docs/measurements/harbour.json
 
 ## autoferry: the real Autoferry data (../shared/realdata/autoferry, tools/autoferry.py) through
 ## rangeproc (with and without the camera bearings) and Stone Soup's GNN and JPDA trackers (the

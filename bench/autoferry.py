@@ -193,9 +193,12 @@ class Plots:
 
 def read_plots(folder: Path) -> Plots:
     """The RADAR and LIDAR plots of a converted scenario ``folder`` (its scenario.toml,
-    FERRY.csv, RADAR.csv, LIDAR.csv): ferry ENU from the INS lat/lon (pymap3d) at the plot
-    time, plus range (sin az, cos az); covariance from the config's range/azimuth sigmas:
-    R = J diag(sr^2, sa^2) J^T, J = d(e, n)/d(r, az)."""
+    FERRY.csv, RADAR.csv, LIDAR.csv): the sensor's ENU position (the ferry's from the INS
+    lat/lon, pymap3d, at the plot time, plus the sensor's ``lever_arm`` forward and right
+    turned by the INS yaw) plus range (sin a, cos a), a = azimuth + yaw (the azimuth is
+    measured from the deck's forward axis; roll and pitch are left out, the plots being
+    planar; the Autoferry conversion has yaw 0 and no lever arm); covariance from the
+    config's range/azimuth sigmas: R = J diag(sr^2, sa^2) J^T, J = d(e, n)/d(r, a)."""
     cfg = tomllib.loads((folder / "scenario.toml").read_text())
     o = cfg["range"]["origin"]
     by_id = {s["id"]: s for s in cfg["sensors"]}
@@ -203,16 +206,21 @@ def read_plots(folder: Path) -> Plots:
     fe, fn, _ = pymap3d.geodetic2enu(ins["lat"].to_numpy(), ins["lon"].to_numpy(),
                                      ins["height"].to_numpy(), o["lat"], o["lon"], o["height"])
     ti = ins["time"].to_numpy(float)
+    yaw = np.unwrap(np.radians(ins["yaw"].to_numpy(float))) if "yaw" in ins else 0.0 * ti
     parts = []
     for sid in ("RADAR", "LIDAR"):
         d = pd.read_csv(folder / by_id[sid]["file"])
         t = d["time"].to_numpy(float)
         r = d["range"].to_numpy(float)
-        az = np.radians(d["azimuth"].to_numpy(float))
+        psi = np.interp(t, ti, yaw)
+        az = np.radians(d["azimuth"].to_numpy(float)) + psi
         s_r = float(by_id[sid]["sigma"]["range"])
         s_a = math.radians(float(by_id[sid]["sigma"]["azimuth"]))
         ferry = np.column_stack([np.interp(t, ti, fe), np.interp(t, ti, fn)])
-        p = ferry + r[:, None] * np.column_stack([np.sin(az), np.cos(az)])
+        fwd, right = (float(x) for x in by_id[sid].get("lever_arm", (0.0, 0.0, 0.0))[:2])
+        sensor = ferry + (fwd * np.column_stack([np.sin(psi), np.cos(psi)])
+                          + right * np.column_stack([np.cos(psi), -np.sin(psi)]))
+        p = sensor + r[:, None] * np.column_stack([np.sin(az), np.cos(az)])
         J = np.empty((t.size, 2, 2))                       # d(e, n) / d(r, az)
         J[:, 0, 0], J[:, 1, 0] = np.sin(az), np.cos(az)
         J[:, 0, 1], J[:, 1, 1] = r * np.cos(az), -r * np.sin(az)

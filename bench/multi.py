@@ -68,6 +68,7 @@ from rangeproc.simulate.multi import DEFAULT_OBJECTS
 #: span >= COVERAGE_LIMIT, best match >= PURITY_LIMIT pure in rows, no swaps
 RATIO_LIMIT, COVERAGE_LIMIT, PURITY_LIMIT = 1.25, 0.90, 0.95
 CUTOFF_M, SCALE_SIGMAS = 50.0, 3.0  #: the evaluation cutoff (m); the scaled one's multiple
+FOLLOWED_LIMIT = 0.5  #: a moored object is made an object of above this share of its span
 
 
 def _blocks(text: str) -> tuple[str, list[str]]:
@@ -127,6 +128,16 @@ def observed_spans(scen: Path) -> dict[str, tuple[float, float]]:
                 if obj:
                     times.setdefault(obj, []).extend(t.iloc[rows.row.to_numpy()].dropna().to_list())
     return {k: (min(v), max(v)) for k, v in times.items() if v}
+
+
+def object_roles(scen: Path) -> dict[str, str]:
+    """Truth object -> its role where ``truth_events.json`` gives one (the harbour kind:
+    boat, ship, moored); empty otherwise."""
+    path = scen / "truth_events.json"
+    events = json.loads(path.read_text()) if path.exists() else {}
+    objects = events.get("objects") if isinstance(events, dict) else None
+    return {k: v["role"] for k, v in (objects or {}).items()
+            if isinstance(v, dict) and "role" in v}
 
 
 def row_purity(scen: Path, out: Path) -> dict[str, float]:
@@ -194,6 +205,7 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
                 multi = evaluate_run(scen / "out", scen / "truth.csv", cutoff=CUTOFF_M,
                                      observed=spans)["multi"]
                 purity = row_purity(scen, scen / "out")
+                roles = object_roles(scen)
                 matched = {m.get("best_match") for m in multi["truth"].values()}
                 extra = sum(1 for k in multi["fused"] if k not in matched)
                 for obj, m in multi["truth"].items():
@@ -220,7 +232,7 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
                                               observed=spans)["multi"]["truth"][obj]
 
                     rows.append({"kind": label, "seed": seed, "object": obj,
-                                 "n_objects": len(multi["truth"]),
+                                 "role": roles.get(obj), "n_objects": len(multi["truth"]),
                                  "match": m.get("best_match"), "rmse": rmse,
                                  "oracle_rmse": oracle,
                                  "ratio": (rmse / oracle) if rmse and oracle else None,
@@ -242,7 +254,12 @@ def sweep(kinds: list[str], seeds: list[int], scale_objects: list[int] | None = 
 
 def misses(r: dict, coverage: str = "coverage_scaled") -> list[str]:
     """The acceptance criteria object row ``r`` misses (empty: accepted), coverage read from
-    ``coverage`` (``coverage_scaled``: the acceptance; ``coverage_observed``: at 50 m)."""
+    ``coverage`` (``coverage_scaled``: the acceptance; ``coverage_observed``: at 50 m). A
+    moored object (role ``moored``: it never moves) is no object to follow but a stationary
+    return (issue 41): it misses "followed" when an output object covers more than
+    :data:`FOLLOWED_LIMIT` of its span, and nothing else is asked of it."""
+    if r.get("role") == "moored":
+        return ["followed"] if (r.get("coverage") or 0.0) > FOLLOWED_LIMIT else []
     out = []
     if r.get("swaps"):
         out.append("swaps")

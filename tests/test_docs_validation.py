@@ -289,3 +289,21 @@ def test_mkdocs_build_serves_the_pages_without_writing_docs(tmp_path: Path) -> N
     assert "0.432" in (site / "accuracy" / "index.html").read_text()
     assert "Not measured yet" in (site / "speed" / "index.html").read_text()
     assert not (docs / "validation").exists()               # nothing written into docs/
+
+
+def test_harbour_page_shows_acceptance_and_every_object(tmp_path: Path) -> None:
+    rows = [{"seed": 3, "object": "B2", "role": "ship", "match": "O1", "coverage_moving": 0.812,
+             "followed": None, "rmse": 10.12, "rmse_hull": 7.41, "antenna_offset_m": 5.8,
+             "swaps": 0, "inside_3sigma": 0.97, "nees": 0.64, "gospa_mean": 19.6,
+             "gnn_match": "S4", "gnn_coverage_moving": 0.955, "gnn_rmse": 8.73, "gnn_swaps": 43,
+             "gnn_inside_3sigma": 0.88},
+            {"seed": 3, "object": "M1", "role": "moored", "match": None,
+             "coverage_moving": None, "followed": 0.0, "antenna_offset_m": 2.1, "swaps": 0,
+             "gnn_followed": 0.87}]
+    acc = {"rangeproc": {"ship": {"objects": 1, "accepted": 0, "outside": ["3 B2: coverage"]},
+                         "moored": {"objects": 1, "accepted": 1, "outside": []}}}
+    write(tmp_path, "harbour.json", {"meta": META, "rows": rows, "acceptance": acc})
+    text = page("validation/harbour.md", tmp_path)
+    for n in ("0.812", "10.12", "7.41", "0.955", "0.870", "3 B2: coverage", "0 of 1",
+              "1 of 1", "Test CPU 9000"):
+        assert n in text, n
