@@ -276,6 +276,12 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
     tracks = formation_spans(tracks, dict(fused), frame, cfg.output.rate_hz,
                              BRIDGE_FACTOR * settings.processing.max_gap,
                              stated_position_sigma(cfg.sensors))
+    for track in tracks:                         # the summary's span of an extended object
+        entry = targets.get(track.target_id)
+        if entry is not None and len(track.time) != entry["n_epochs"]:
+            entry.update(t_start=float(track.time[0]), t_end=float(track.time[-1]),
+                         n_epochs=len(track.time), max_sigma_position_m=float(np.sqrt(np.max(
+                             np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))))
     return fused, tracks, residuals, targets
 
 
