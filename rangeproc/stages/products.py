@@ -21,6 +21,7 @@ from rangeproc.fusion.calibration_summary import calibration_summary, time_offse
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
 from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.fusion.formation import formation_spans
 from rangeproc.fusion.extent import (HEADING_SPEED, Extent, held_heading, object_extent,
                                      plots_only)
 from rangeproc.fusion.persistent_offset import persistent_offset
@@ -270,6 +271,17 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
         tracks, residuals, targets = products(cfg, frame, fused, settings, sensor_summary,
                                               n_no_platform, spreads=spreads)
     plausibility(cfg, sensor_summary, logs)
+    # objects first or last seen beside another within its radar's resolution: the span
+    # hidden in the other's plots (fusion.formation)
+    tracks = formation_spans(tracks, dict(fused), frame, cfg.output.rate_hz,
+                             BRIDGE_FACTOR * settings.processing.max_gap,
+                             stated_position_sigma(cfg.sensors))
+    for track in tracks:                         # the summary's span of an extended object
+        entry = targets.get(track.target_id)
+        if entry is not None and len(track.time) != entry["n_epochs"]:
+            entry.update(t_start=float(track.time[0]), t_end=float(track.time[-1]),
+                         n_epochs=len(track.time), max_sigma_position_m=float(np.sqrt(np.max(
+                             np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))))
     return fused, tracks, residuals, targets
 
 

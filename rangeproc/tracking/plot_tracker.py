@@ -74,7 +74,9 @@ plots, their positions), in the range ENU frame.
     one plot's noise (a quay's scatterers, a moored boat) is left as clutter.
   - *Retrodiction* (``tracking.retrodiction``): the same tracker run backward in time gives
     each track the plots before its confirmation that the forward pass left as clutter;
-    where the passes exchange plots, the likelier grouping (``tracking.two_passes``).
+    where the passes exchange plots, the likelier grouping (``tracking.two_passes``); a
+    forward track that held two objects in turn, split by the backward pass into two
+    tracks at once, the same (``tracking.pass_splits``).
   - *Time stamps*: a radar that stamps a whole scan with one time gives each plot a time up
     to a scan period off; that error, carried along the track's velocity, is part of the
     plot's noise (:attr:`PlotTiming.stamp_sigma`).
@@ -95,7 +97,7 @@ from rangeproc.tracking.stationary import moving_tracks
 from rangeproc.tracking.hull_merge import hull_tracks
 from rangeproc.tracking.track_extent import (EXTENT_MEMORY, HullSpread, extent_in_use,
                                              extent_update, pair_close)
-from rangeproc.tracking.two_passes import both_passes
+from rangeproc.tracking.pass_splits import split_passes
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -453,7 +455,8 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
         return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several, *rest)
     if not retrodict:
         return tracker(t, p, R, scan, clock)
-    return moving_tracks(both_passes(tracker, t, p, R, scan, clock), p, R, planar)
+    return moving_tracks(split_passes(tracker, t, p, R, scan, clock,
+                                      CONFIRM_SCORE), p, R, planar)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
