@@ -18,6 +18,7 @@ sky; cells with plots in most scans are reported as stationary returns.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 #: Clutter map: cells of this many median plot sigmas along each axis; each cell's density
 #: shrunk toward the sensor-wide mean with the weight of this many cells (a Gamma prior).
@@ -114,6 +115,33 @@ def stationary_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: b
         mean = p[inverse == c].mean(axis=0)
         out.append({"e": float(mean[0]), "n": float(mean[1]), "u": float(mean[2]),
                     "share": float(share[c]), "plots": int(counts[c])})
+    return out
+
+
+def on_stationary_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool,
+                          gate: float) -> np.ndarray:
+    """(N,) bool: the plots p (N, 3) m, R (N, 3, 3) m^2 of scans ``scan`` (N,) that have a
+    plot within ``gate`` (chi-square, of their two noises) in at least ``STATIONARY_SHARE``
+    of the scans: returns of a quay, a moored boat or the shore, seen at one place scan after
+    scan (a moving object's plots are each near the others of a few scans only). East and
+    north only when ``planar``. Plots without a finite position are False."""
+    out = np.zeros(p.shape[0], dtype=bool)
+    usable = np.flatnonzero(np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2)))
+    if usable.size == 0:
+        return out
+    axes = 2 if planar else 3
+    pu, Ru = p[usable, :axes], R[usable, :axes, :axes]
+    su = np.asarray(scan)[usable]
+    n_scans = np.unique(su).size
+    largest = np.linalg.eigvalsh(Ru)[:, -1]
+    tree = cKDTree(pu)
+    reach = np.sqrt(gate * 2.0 * largest.max())           # no pair in the gate lies further
+    for a, near in enumerate(tree.query_ball_point(pu, reach)):
+        near = np.asarray(near, dtype=np.int64)
+        d = pu[near] - pu[a]
+        S = Ru[near] + Ru[a]
+        m2 = np.einsum("ki,ki->k", d, np.linalg.solve(S, d[..., None])[..., 0])
+        out[usable[a]] = np.unique(su[near[m2 <= gate]]).size >= STATIONARY_SHARE * n_scans
     return out
 
 

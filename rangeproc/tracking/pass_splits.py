@@ -35,27 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.tracking.plots import INITIATION_SPEED
-from rangeproc.tracking.retrodiction import MIN_SHARED, backward_labels, retrodicted
-from rangeproc.tracking.two_passes import Tracker, settled
-
-
-def split_passes(track: Tracker, t: np.ndarray, p: np.ndarray, R: np.ndarray,
-                 scan: np.ndarray, clock: np.ndarray, confirm: float) -> np.ndarray:
-    """(N,) the track labels (-1 clutter) of ``track`` over plots t (N,) s, p (N, 3) m,
-    R (N, 3, 3) m^2, scan (N,), clock (N,) (as ``tracking.plot_tracker.track_plots``): the
-    forward and the backward pass (``tracking.two_passes.both_passes``), with the forward
-    tracks that held two objects in turn first given the backward grouping
-    (:func:`swapped_splits`; ``confirm`` the tracker's confirmation score), then the
-    passes' exchanges settled (``two_passes.settled``) and each forward track given its
-    backward partner's plots before and after it (``retrodiction.retrodicted``)."""
-    scores: list[float] = []
-    back_scores: list[float] = []
-    label = track(t, p, R, scan, clock, INITIATION_SPEED, scores)
-    back = backward_labels(lambda *a: track(*a, INITIATION_SPEED, back_scores), t, p, R, scan,
-                           clock)
-    label, scores = swapped_splits(label, back, scores, back_scores, clock, confirm)
-    return retrodicted(settled(label, back, scores, back_scores), back, clock)
+from rangeproc.tracking.retrodiction import MIN_SHARED
 
 
 def swapped_splits(forward: np.ndarray, backward: np.ndarray, forward_scores: list[float],

@@ -68,8 +68,8 @@ plots, their positions), in the range ENU frame.
     noise, :func:`neighbour_share`, ``SEVERAL_RETURNS_SHARE``), so that a radar's plots and
     a formation partner among them keep their own tracks.
   - *Initiation*: an unassigned plot starts a tentative track whose velocity is unknown up to
-    ``INITIATION_SPEED`` (3 sigma), so its second plot adds little evidence unless the
-    clutter is sparse.
+    a bound (3 sigma) fitted to the sensor's tracks (``tracking.speed_bound``), or
+    ``INITIATION_SPEED`` on stationary returns (``clutter_map.on_stationary_returns``).
   - *Stationary returns* (``tracking.stationary``): a confirmed track that never moved beyond
     one plot's noise (a quay's scatterers, a moored boat) is left as clutter.
   - *Retrodiction* (``tracking.retrodiction``): the same tracker run backward in time gives
@@ -91,13 +91,14 @@ from scipy.optimize import linear_sum_assignment
 from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
 from rangeproc.models.motion import cv_predict
 from rangeproc.quantiles import chi2_ppf
-from rangeproc.tracking.clutter_map import clutter_density, neighbour_share
+from rangeproc.tracking.clutter_map import (clutter_density, neighbour_share,
+                                            on_stationary_returns)
 from rangeproc.tracking.initiation import new_track_score
 from rangeproc.tracking.stationary import moving_tracks
 from rangeproc.tracking.hull_merge import hull_tracks
+from rangeproc.tracking.two_passes import both_passes
 from rangeproc.tracking.track_extent import (EXTENT_MEMORY, HullSpread, extent_in_use,
                                              extent_update, pair_close)
-from rangeproc.tracking.pass_splits import split_passes
 from rangeproc.tracking.plots import (
     CONFIRM_SCANS,
     GATE_PROBABILITY,
@@ -108,6 +109,7 @@ from rangeproc.tracking.plots import (
     is_rotating,
     revisit_period,
     scan_numbers,
+    silent_clock,
 )
 
 #: White-acceleration PSD ((m/s^2)^2/s) of the cruise model: an object holding its course
@@ -162,7 +164,9 @@ class PlotTiming:
     scan: (N,) int64, the scan number, or for plots in no scan order the number of whole
     revisit periods since the first plot; clock: (N,) float, the same in revisits (the scan
     number itself for a scanning radar); revisit: the revisit period (s; 0 with one scan);
-    order: "rotating", "framed" or "free".
+    order: "rotating", "framed" or "free"; silent: (N,) float, the clock with the scans a
+    sensor's silences left out counted (``tracking.plots.silent_clock``; the clock for plots
+    in no scan order), which the stray-tail rule (``tracking.plot_tails``) reads.
     """
 
     frame: np.ndarray
@@ -170,6 +174,7 @@ class PlotTiming:
     clock: np.ndarray
     revisit: float
     order: str
+    silent: np.ndarray
 
     @property
     def stamp_sigma(self) -> float:
@@ -186,12 +191,13 @@ def plot_timing(t: np.ndarray, azimuth: np.ndarray, p: np.ndarray, R: np.ndarray
     framed = is_framed(t)
     if framed or is_rotating(t, azimuth):
         scan = scan_numbers(t, azimuth)
-        return PlotTiming(scan, scan, scan.astype(float), revisit_period(t, scan),
-                          "framed" if framed else "rotating")
+        revisit = revisit_period(t, scan)
+        return PlotTiming(scan, scan, scan.astype(float), revisit,
+                          "framed" if framed else "rotating", silent_clock(t, scan, revisit))
     frame = np.cumsum(np.concatenate([[False], np.diff(t) > 0.0])).astype(np.int64)
     revisit = free_revisit(t, p, R, frame, planar)
     clock = (t - t[0]) / revisit if t.size else np.zeros(0)
-    return PlotTiming(frame, np.floor(clock).astype(np.int64), clock, revisit, "free")
+    return PlotTiming(frame, np.floor(clock).astype(np.int64), clock, revisit, "free", clock)
 
 
 def free_revisit(t: np.ndarray, p: np.ndarray, R: np.ndarray, frame: np.ndarray,
@@ -420,7 +426,8 @@ def several_returns(p: np.ndarray, R: np.ndarray, scan: np.ndarray, planar: bool
 def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                 clock: np.ndarray | None = None, planar: bool = False,
                 stamp_sigma: float = 0.0, retrodict: bool = True,
-                several: bool | None = None) -> np.ndarray:
+                several: bool | None = None, tails: np.ndarray | None = None
+                ) -> np.ndarray:
     """(N,) int64 track label per plot (0, 1, ... in order of first plot; -1 = clutter).
 
     t: (N,) s ascending; p: (N, 3) ENU m; R: (N, 3, 3) m^2; scan: (N,) the frames plots are
@@ -432,8 +439,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     plot's position noise along the track's velocity; retrodict: the tracks' plots before
     their confirmation found by the tracker run backward in time (``tracking.retrodiction``;
     off where only the tracks' revisits are wanted); several: :func:`several_returns` of
-    these plots where the caller has it (default: computed here). See the module docstring
-    (*Tracker*) for the method.
+    these plots where the caller has it (default: computed here); tails: (N,) the clock of
+    the backward pass's stray-tail rule (``PlotTiming.silent``; default ``clock``). See the
+    module docstring (*Tracker*) for the method.
     """
     if clock is None:
         clock = np.asarray(scan, dtype=float)
@@ -441,9 +449,9 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     usable = np.isfinite(p).all(axis=1) & np.isfinite(R).all(axis=(1, 2))
     if not usable.all():            # plots without a position (no platform geometry)
         if usable.any():
-            label[usable] = track_plots(t[usable], p[usable], R[usable], scan[usable],
-                                        clock[usable], planar, stamp_sigma, retrodict,
-                                        several)
+            label[usable] = track_plots(
+                t[usable], p[usable], R[usable], scan[usable], clock[usable], planar,
+                stamp_sigma, retrodict, several, None if tails is None else tails[usable])
         return label
     if t.size == 0:
         return label
@@ -455,8 +463,8 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
         return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several, *rest)
     if not retrodict:
         return tracker(t, p, R, scan, clock)
-    return moving_tracks(split_passes(tracker, t, p, R, scan, clock,
-                                      CONFIRM_SCORE), p, R, planar)
+    return moving_tracks(both_passes(tracker, t, p, R, scan, clock, 2 if planar else 3,
+                                     tails, CONFIRM_SCORE), p, R, planar)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
@@ -472,6 +480,9 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
     axes = 2 if planar else 3
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar, clock)
+    bound = np.full(t.size, float(speed))      # on stationary returns, the general bound
+    if speed < INITIATION_SPEED:
+        bound[on_stationary_returns(p, R, scan, planar, gate)] = INITIATION_SPEED
     live: list[_ImmTrack] = []
     done: list[_ImmTrack] = []
     order = np.argsort(scan, kind="stable")
@@ -525,7 +536,7 @@ def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
             (done if expired else keep).append(tr)
         live = keep
         for i in rows[~taken]:
-            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i), speed, axes))
+            live.append(_start_imm(p[i], R[i], float(t[i]), k, int(i), bound[i], axes))
     done.extend(live)
     confirmed = sorted((tr for tr in done if tr.confirmed), key=lambda tr: tr.rows[0])
     for n, tr in enumerate(confirmed):

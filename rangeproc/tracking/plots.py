@@ -96,6 +96,30 @@ def scan_numbers(t: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return np.cumsum(np.concatenate([[False], da < -np.pi])).astype(np.int64)
 
 
+def silent_clock(t: np.ndarray, scan: np.ndarray, revisit: float) -> np.ndarray:
+    """(N,) float, the clock in scans of plots at times ``t`` (N,) s ascending with scan
+    numbers ``scan`` (N,) (:func:`scan_numbers`): the scan number plus the scans a sensor
+    left out. A lidar or radar that writes a frame only when it detects something is silent
+    while nothing is in view; each silence longer than a scan (the time between consecutive
+    scans, over ``revisit`` s, rounded) adds its missing scans, at most ``MAX_MISSES`` + 1 a
+    silence: an object in view would have been reported in them, so the few plots a track
+    coasting through one takes after it, tens of seconds later, are a stray tail
+    (``tracking.plot_tails``); a longer silence (a sensor switched off) counts no further.
+    ``scan`` as floats when ``revisit`` is not positive."""
+    clock = scan.astype(float)
+    if t.size < 2 or not revisit > 0.0:
+        return clock
+    order = np.argsort(scan, kind="stable")
+    first = np.concatenate([[True], np.diff(scan[order]) > 0])
+    starts = order[first]                                 # first plot of each scan
+    step = np.diff(t[starts])
+    missing = np.clip(np.round(step / revisit) - 1.0, 0.0, MAX_MISSES + 1.0)
+    extra = np.concatenate([[0.0], np.cumsum(missing)])
+    index = np.cumsum(first) - 1                          # scan index of each sorted plot
+    clock[order] += extra[index]
+    return clock
+
+
 def revisit_period(t: np.ndarray, scan: np.ndarray) -> float:
     """Median time (s) between consecutive scans of plots at times ``t`` (N,) with scan
     numbers ``scan`` (N,) (each scan at the median time of its plots); 0 with one scan."""

@@ -197,7 +197,8 @@ def sensor_segments(sensor: int, rows: SensorRows
             several = several_returns(p, R, timing.frame, planar)
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
                                  track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
-                                             planar, timing.stamp_sigma, several=several))
+                                             planar, timing.stamp_sigma, several=several,
+                                             tails=timing.silent))
             label = cut_jumps(rows.t[ranged], p, R, timing.clock,
                               stray_tails(timing.clock, label), timing.stamp_sigma)
             if not several:                                   # one return per object a scan

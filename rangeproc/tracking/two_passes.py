@@ -32,8 +32,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rangeproc.tracking.pass_splits import swapped_splits
 from rangeproc.tracking.plots import INITIATION_SPEED
 from rangeproc.tracking.retrodiction import MIN_SHARED, backward_labels, retrodicted
+from rangeproc.tracking.speed_bound import fitted_speed
 
 #: The backward grouping replaces the forward one only when its summed track score is higher
 #: by at least this much (a likelihood ratio of e^2, about 7): near ties stay as tracked.
@@ -46,17 +48,29 @@ Tracker = Callable[..., np.ndarray]
 
 
 def both_passes(track: Tracker, t: np.ndarray, p: np.ndarray, R: np.ndarray,
-                scan: np.ndarray, clock: np.ndarray) -> np.ndarray:
+                scan: np.ndarray, clock: np.ndarray, axes: int = 3,
+                tails: np.ndarray | None = None, confirm: float | None = None) -> np.ndarray:
     """(N,) the track labels (-1 clutter) of ``track`` over plots t (N,) s, p (N, 3) m,
-    R (N, 3, 3) m^2, scan (N,), clock (N,) (as ``tracking.plot_tracker.track_plots``):
-    the forward and the backward pass, their exchanges settled (:func:`settled`) and each
-    forward track given its backward partner's plots before and after it
-    (``retrodiction.retrodicted``)."""
+    R (N, 3, 3) m^2, scan (N,), clock (N,) (as ``tracking.plot_tracker.track_plots``;
+    ``axes`` 2 for a planar sensor; ``tails`` the clock of the backward tracks' stray-tail
+    rule, default ``clock``): a first forward pass with the general speed bound
+    ``INITIATION_SPEED`` fits the bound of new tracks to the speeds of its confirmed tracks
+    (``tracking.speed_bound``); with it, the forward and the backward pass; with ``confirm``
+    (the tracker's confirmation score) the forward tracks that held two objects in turn
+    first given the backward grouping (``tracking.pass_splits.swapped_splits``); then the
+    passes' exchanges settled (:func:`settled`) and each forward track given its backward
+    partner's plots before and after it (``retrodiction.retrodicted``)."""
     scores: list[float] = []
     back_scores: list[float] = []
     label = track(t, p, R, scan, clock, INITIATION_SPEED, scores)
-    back = backward_labels(lambda *a: track(*a, INITIATION_SPEED, back_scores), t, p, R, scan,
-                           clock)
+    speed = fitted_speed(label, t, p, axes)
+    if speed < INITIATION_SPEED:
+        scores.clear()
+        label = track(t, p, R, scan, clock, speed, scores)
+    back = backward_labels(lambda *a: track(*a, speed, back_scores), t, p, R, scan, clock,
+                           tails)
+    if confirm is not None:
+        label, scores = swapped_splits(label, back, scores, back_scores, clock, confirm)
     return retrodicted(settled(label, back, scores, back_scores), back, clock)
 
 

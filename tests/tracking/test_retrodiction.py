@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+import rangeproc.tracking.two_passes as two_passes
 from rangeproc.tracking.plot_tracker import track_plots
+from rangeproc.tracking.plots import INITIATION_SPEED
 from rangeproc.tracking.retrodiction import MIN_SHARED, backward_labels, retrodicted
 
 
@@ -57,10 +59,12 @@ def _boat_leaving_clutter(seed: int):
     return np.array(t), np.array(p), R, np.array(scan), np.array(truth)
 
 
-def test_a_boat_confirmed_late_gets_its_first_plots_back():
+def test_a_boat_confirmed_late_gets_its_first_plots_back(monkeypatch):
     """Seeds 1-8: the forward pass confirms the boat's track late (its first plots lie in
     clutter 60 times denser than the open water); the backward pass gives most of them
-    back, with far fewer clutter plots than boat plots."""
+    back, with far fewer clutter plots than boat plots. Retrodiction alone: both passes with
+    the general speed bound (the fitted bound, ``tracking.speed_bound``, left out)."""
+    monkeypatch.setattr(two_passes, "fitted_speed", lambda *args: INITIATION_SPEED)
     late, head, boat_gain, clutter_gain = [], [], 0, 0
     for seed in range(1, 9):
         t, p, R, scan, truth = _boat_leaving_clutter(seed)
