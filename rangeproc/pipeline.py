@@ -4,6 +4,7 @@ under its name; ``run`` strings them together.
 """
 from __future__ import annotations
 
+import ctypes
 import logging
 import platform as _platform
 import time
@@ -47,6 +48,31 @@ from rangeproc.tracking.routing import (
 )
 
 log = logging.getLogger(__name__)
+
+
+#: glibc's ``mallopt`` parameter number of the mmap threshold (``M_MMAP_THRESHOLD``, malloc.h).
+M_MMAP_THRESHOLD = -3
+#: Allocations of at least this many bytes get pages of their own (glibc's initial value).
+MMAP_THRESHOLD_BYTES = 128 * 1024
+
+
+def fixed_mmap_threshold() -> bool:
+    """Keep glibc's mmap threshold at :data:`MMAP_THRESHOLD_BYTES` for this process.
+
+    glibc raises the threshold to the size of every mmapped block that is freed (up to
+    32 MiB), so after the first large array is let go, arrays up to that size come from the
+    heap, whose freed middle is not given back to the system: a long sortie's per-row arrays
+    (a few to tens of MiB each), freed stage after stage, stayed resident (the 2-million-row
+    sortie's peak resident memory: 2.3 GB with the moving threshold, 2.0 GB fixed). A fixed
+    threshold gives each large array its own pages, returned when it is freed. Values are
+    unchanged; the cost is a page fault per new page of a large array. True when set (glibc);
+    elsewhere nothing is done.
+    """
+    try:
+        libc = ctypes.CDLL(None)
+        return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES))
+    except (OSError, AttributeError, TypeError):     # not glibc: nothing to set
+        return False
 
 
 
@@ -135,6 +161,7 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     display; the default shows nothing. Every warning logged on the way is also kept in
     ``summary["warnings"]`` (one line each) for the report page and the terminal's headline.
     """
+    fixed_mmap_threshold()
     with collect_warnings() as warnings:
         return _run(config_path, clock, warnings)
 
