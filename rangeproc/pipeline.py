@@ -224,6 +224,9 @@ def _run(config_path: str | Path, clock: StageClock | None, warnings: list[str])
             account(cfg, sensor_summary, row_accounting(
                 cfg, {sid: lg.n_read for sid, lg in logs.items()}, read_rows, logs,
                 screened.edits, associated.kept, association, fused), logs)
+        # the fusion results and the logs are not read again: their arrays (a long sortie's
+        # per-epoch covariances among them) are let go before the report draws
+        del fused, logs, screened
         exports: list[Path] = []
 
         def tables() -> None:           # written while the report's child draws its first figures
