@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
@@ -76,14 +76,21 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     if len(b) == 0:
         return np.full((int(result.grid.sum()), 3), np.nan)
     idx, sigma = _thinned(result, _row_sigma(result))
-    rows = b.rows(idx).with_sigma(np.ascontiguousarray(sigma)).filter_rows(
-        result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]))
+    every = len(idx) == len(b)          # every row: the batch's own arrays, no row copies
+    rows = FilterRows(result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]),
+                      *(a if every else a[idx] for a in (b.model, b.z)),
+                      np.ascontiguousarray(sigma),
+                      *(a if every else a[idx] for a in (b.s, b.sv, b.Qr, b.sensor)))
+    del sigma
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
     fwd = run_filter(rows, prior, FilterSettings(np.full(7, np.inf)))
+    xf, Pf = fwd.xf, fwd.Pf             # the rows, their gate results and the linearisation
+    del rows, prior, x_lin, fwd         # track are not needed by the smoother: let go first
     # fade and jerk given (None) as the passes give them: one compiled smoother for both
-    _, Ps, _ = rts_smooth(result.epoch_t, fwd.xf, fwd.Pf, result.q, False, True, None, None)
+    _, Ps, _ = rts_smooth(result.epoch_t, xf, Pf, result.q, False, True, None, None)
     var = packed_diagonal(Ps[result.grid], 0, 3)
+    del xf, Pf, Ps
     t = result.epoch_t[result.grid]
     var = var + packed_diagonal(spans_calibration_covariance(result.calibration, t), 0, 3)
     return np.sqrt(np.maximum(var, 0.0))

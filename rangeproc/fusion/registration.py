@@ -222,11 +222,10 @@ def _weights(groups: list[np.ndarray], r: np.ndarray, base: np.ndarray, first: b
     (a bias still in them): only values far from their sensor component's median are left
     out, at the stated sigmas."""
     w = np.zeros(r.shape)
-    for rows in groups:                  # one component of one sensor at a time
-        r_s, base_s = r[rows], base[rows]          # the sensor's rows gathered once
-        for c in range(r.shape[1]):
-            sc = base_s[:, c]
-            u = r_s[:, c] / sc
+    for rows in groups:                  # one component of one sensor at a time, gathered
+        for c in range(r.shape[1]):      # on its own (a long sortie's sensor: tens of MiB)
+            sc = base[rows, c]
+            u = r[rows, c] / sc
             have = np.isfinite(u) & (sc > 0)
             if np.count_nonzero(have) < 3:
                 continue
@@ -371,7 +370,8 @@ def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
             info = S[np.ix_(act, act)] + np.diag(1.0 / pr.s_prior[act] ** 2)
             cov[np.ix_(act, act)] = np.linalg.inv(info)
             dc[act] = cov[np.ix_(act, act)] @ s[act]
-        if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals
+        if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals (the last
+            weight = rate = None        # weights and rates let go first: (N, 6) and (N, 4))
             post, rate = postfit(*pr.args, *pr.geo, res, xb - Xc @ dc, dc)
             weight = _weights(groups, post, batch.sigma, False)
             del post
