@@ -16,14 +16,31 @@ explains), while a trajectory whose process noise grew until rows of several thi
 gate accepts rows hundreds of their sigmas away. The sigma is the one the final pass used,
 but at most ``NOISE_CEILING`` times the sensor's stated sigma: the noise estimated from the
 residuals of rows of several things grows with them (kilometres for a 5 m radar), while a
-real noise burst stays within the ceiling. Between two consecutive fitting
-position rows (and before the first, after the last) the trajectory is *unsupported* when
-that stretch holds at least ``MIN_UNFIT_ROWS`` position rows that do not fit and lasts
-longer than ``MIN_UNFIT_SECONDS``: a lone wild point, or a biased sensor's rows interleaved
-with another sensor's fitting ones, leave the trajectory supported; a run of rejections
-with no fitting row among them does not. A stretch with no rows at all is a data gap,
-bridged as before (``fusion.bridge``), its sigma growing honestly. An object without
-position rows (angles or range rates from a given initial state) is supported throughout.
+real noise burst stays within the ceiling.
+
+The ceiling still admits a trajectory that drifts off its rows slowly (a track that followed
+a return of something else and is carried on past it, its noise estimate inflated by those
+returns): its rows then lie tens of their stated sigmas away, all on one side. Where the
+stated sigmas are known, a *drift* is a run of at least ``DRIFT_ROWS`` consecutive position
+rows of one sensor whose smoothed residual in one component lies beyond ``FIT_SIGMAS`` of the
+stated sigma with the same sign; its rows do not fit. White noise, even a 10x burst, changes
+sign (a run of ``DRIFT_ROWS`` one-signed residuals beyond 0.5 sigma of a 10x burst: 2 x
+0.31^4 = 2 %; beyond 5 sigma of the stated noise: 1e-25); an offset of a sensor's returns
+that persists (a hull side) lies within ``FIT_SIGMAS`` stated sigmas of the track that the
+other sensors carry, or is taken up by it.
+
+Between two consecutive fitting position rows the trajectory is *unsupported* when that
+stretch holds at least ``MIN_UNFIT_ROWS`` position rows that do not fit and lasts longer than
+``MIN_UNFIT_SECONDS``: a lone wild point, or a biased sensor's rows interleaved with another
+sensor's fitting ones, leave the trajectory supported; a run of rejections with no fitting row
+among them does not. Before the first fitting row and after the last, the *end* stretches,
+``MIN_UNFIT_ROWS`` rows that do not fit make it unsupported whatever their span: no fitting
+row follows (precedes) them to bring the trajectory back, so what is written there is an
+extrapolation its own rows reject, however short (a track's last seconds written hundreds of
+metres off, at 100+ m/s^2, because the rows rejecting them spanned 4 s). A stretch with no
+rows at all is a data gap, bridged as before (``fusion.bridge``), its sigma growing honestly.
+An object without position rows (angles or range rates from a given initial state) is
+supported throughout.
 """
 from __future__ import annotations
 
@@ -36,6 +53,9 @@ from rangeproc.models.measurement import CARTESIAN, SPHERICAL
 #: fit, lasting longer than this many seconds, is unsupported (module docstring).
 MIN_UNFIT_ROWS = 3
 MIN_UNFIT_SECONDS = 5.0
+#: Consecutive position rows of one sensor, each beyond ``FIT_SIGMAS`` stated sigmas with
+#: the same sign in one component, that make a drift (module docstring).
+DRIFT_ROWS = 4
 #: A fitting row's smoothed residual lies within this many of its sigmas in each position
 #: component (a 1e-6 event for a Gaussian residual).
 FIT_SIGMAS = 5.0
@@ -63,15 +83,49 @@ def position_rows(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
         close = np.abs(res[:, :3]) <= FIT_SIGMAS * sigma
     accepted = np.where(measured, used[:, :3] & close, True).all(axis=1)
     is_position = cart | sph
-    return is_position, is_position & accepted
+    fits = is_position & accepted
+    if stated is not None:
+        fits &= ~drifting(batch, res, stated, is_position)
+    return is_position, fits
+
+
+def drifting(batch: MeasurementBatch, res: np.ndarray, stated: np.ndarray,
+             is_position: np.ndarray) -> np.ndarray:
+    """(N,) bool: the position rows (``is_position`` (N,) bool) in a drift (module docstring):
+    runs of at least ``DRIFT_ROWS`` consecutive position rows of one sensor whose smoothed
+    residual ``res`` (N, 6) in one of the first three components lies beyond ``FIT_SIGMAS``
+    of ``stated`` (S, 3), that sensor's stated sigma (NaN: no test), with the same sign."""
+    out = np.zeros(len(batch.t), dtype=bool)
+    for sensor in np.unique(batch.sensor[is_position]):
+        rows = np.flatnonzero(is_position & (batch.sensor == sensor))
+        rows = rows[np.argsort(batch.t[rows], kind="stable")]
+        limit = FIT_SIGMAS * stated[sensor]
+        with np.errstate(invalid="ignore"):
+            side = np.where(res[rows, :3] > limit, 1, np.where(res[rows, :3] < -limit, -1, 0))
+        for c in range(3):
+            out[rows[_runs(side[:, c], DRIFT_ROWS)]] = True
+    return out
+
+
+def _runs(side: np.ndarray, least: int) -> np.ndarray:
+    """(M,) bool: members of runs of at least ``least`` equal non-zero entries of ``side``."""
+    change = np.flatnonzero(np.diff(side) != 0) + 1
+    starts = np.r_[0, change]
+    ends = np.r_[change, side.size]
+    member = np.zeros(side.size, dtype=bool)
+    for a, b in zip(starts, ends):
+        if side.size and side[a] != 0 and b - a >= least:
+            member[a:b] = True
+    return member
 
 
 def unsupported_stretches(t_rows: np.ndarray, is_position: np.ndarray, fits: np.ndarray
                           ) -> list[tuple[float, float]]:
     """The open time intervals (s) where the trajectory is unsupported (module docstring):
-    between consecutive fitting position rows, or before the first / after the last one
-    (-inf / +inf), each holding at least ``MIN_UNFIT_ROWS`` position rows that do not fit
-    and lasting longer than ``MIN_UNFIT_SECONDS``. t_rows: (N,) s ascending."""
+    between consecutive fitting position rows, each holding at least ``MIN_UNFIT_ROWS``
+    position rows that do not fit and lasting longer than ``MIN_UNFIT_SECONDS``, or before
+    the first / after the last one (-inf / +inf), holding at least ``MIN_UNFIT_ROWS`` of them
+    whatever their span. t_rows: (N,) s ascending."""
     pos_t = t_rows[is_position]
     pos_fit = fits[is_position]
     if pos_t.size == 0 or pos_fit.all():
@@ -84,10 +138,8 @@ def unsupported_stretches(t_rows: np.ndarray, is_position: np.ndarray, fits: np.
     out = []
     for j, n in zip(*np.unique(k, return_counts=True)):
         lo, hi = float(edges[j]), float(edges[j + 1])
-        inside = unfit_t[k == j]
-        length = (min(hi, float(inside.max())) if np.isinf(hi) else hi) - \
-                 (max(lo, float(inside.min())) if np.isinf(lo) else lo)
-        if n >= MIN_UNFIT_ROWS and length > MIN_UNFIT_SECONDS:
+        end = np.isinf(lo) or np.isinf(hi)
+        if n >= MIN_UNFIT_ROWS and (end or hi - lo > MIN_UNFIT_SECONDS):
             out.append((lo, hi))
     return out
 

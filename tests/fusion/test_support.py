@@ -74,8 +74,40 @@ def test_a_residual_far_outside_the_stated_noise_does_not_fit_under_inflated_noi
     assert supported(t, batch, used, res).all()          # no ceiling: within 5 sigma
     keep = supported(t, batch, used, res, stated)
     assert not keep[(t > 19.0) & (t < 40.0)].any() and keep[(t < 19.0) | (t > 40.0)].all()
-    res[20:40, 0] = 60.0                      # 3 sigma of a 10x burst of a 2 m sensor: fits
-    assert supported(t, batch, used, res, stated).all()
+    res[20:40, 0] = 60.0 * (-1.0) ** np.arange(20)  # 3 sigma of a 10x burst of a 2 m
+    assert supported(t, batch, used, res, stated).all()   # sensor, white: fits
+
+
+def test_rows_that_drift_to_one_side_do_not_fit_under_inflated_noise() -> None:
+    """A track carried past its rows: residuals within 5 of the inflated sigmas, growing on
+    one side beyond 5 stated sigmas, stop fitting; the end after them is not written."""
+    batch = gps_line_batch(np.arange(0.0, 60.0, 1.0), np.random.default_rng(7), sigma=2.0)
+    used, res = _fit_all(batch)
+    batch.sigma[:, :3] = 50.0                 # the noise estimate of rows of several things
+    stated = np.array([[2.0, 2.0, 2.0]])
+    res[45:, 1] = 12.0 + 3.0 * np.arange(15)  # 12-54 m, all north of the trajectory
+    t = np.arange(0.0, 60.0, 0.2)
+    assert supported(t, batch, used, res).all()          # no stated sigma: no drift test
+    is_position, fits = position_rows(batch, used, res, stated)
+    assert not fits[45:].any() and fits[:45].all()
+    assert np.array_equal(supported(t, batch, used, res, stated), t <= 44.0)
+    res[45:48, 1] = 30.0                      # three one-signed rows between fitting ones: a
+    res[48:, 1] = 0.0                         # run shorter than DRIFT_ROWS fits
+    assert position_rows(batch, used, res, stated)[1].all()
+
+
+def test_a_short_end_stretch_that_does_not_fit_is_not_written() -> None:
+    """The last 3 s of rows reject the trajectory: shorter than MIN_UNFIT_SECONDS, but at an
+    end no fitting row brings the trajectory back, so it is not written; the same rows
+    between fitting ones are left to the length rule."""
+    batch = gps_line_batch(np.arange(0.0, 60.0, 0.5), np.random.default_rng(8))
+    used, res = _fit_all(batch)
+    used[batch.t > 57.0] = False
+    t = np.arange(0.0, 60.0, 0.2)
+    assert np.array_equal(supported(t, batch, used, res), t <= 57.0)
+    used, res = _fit_all(batch)
+    used[(batch.t > 40.0) & (batch.t < 43.0)] = False
+    assert supported(t, batch, used, res).all()
 
 
 def test_an_object_with_another_objects_rows_is_not_written_where_they_took_it() -> None:
