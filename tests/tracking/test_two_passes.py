@@ -3,6 +3,7 @@ grouping with the higher summed track score (tracking.two_passes)."""
 from __future__ import annotations
 
 import numpy as np
+from plot_scenes import as_plots
 
 import rangeproc.tracking.plot_tracker as pt
 import rangeproc.tracking.two_passes as tp
@@ -47,11 +48,7 @@ def _two_boats(seed: int):
             rows.append((tk, a + rng.uniform(-60.0, 60.0, 2), -1))
         for _ in range(rng.poisson(3.0)):
             rows.append((tk, rng.uniform(-200.0, 600.0, 2), -1))
-    rows.sort(key=lambda r: r[0])
-    t = np.array([r[0] for r in rows])
-    p = np.array([[*r[1], 0.0] for r in rows])
-    R = np.tile(np.diag([25.0, 25.0, 1e4]), (t.size, 1, 1))
-    return t, p, R, np.round(t / PERIOD).astype(np.int64), np.array([r[2] for r in rows])
+    return as_plots(rows, PERIOD)
 
 
 def _tracks_holding_both() -> int:
