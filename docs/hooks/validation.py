@@ -393,7 +393,8 @@ def render_harbour(data: Any) -> str:
         body = []
         for tracker, per_role in acc.items():
             for role, a in per_role.items():
-                body.append([tracker, role, f"{a['accepted']} of {a['objects']}",
+                body.append([{"stonesoup_gnn": "Stone Soup GNN"}.get(tracker, tracker), role,
+                             f"{a['accepted']} of {a['objects']}",
                              "; ".join(a["outside"]) or DASH])
         out.append("## Acceptance\n\nMoving objects: coverage of the moving span ≥ 0.90, "
                    "RMSE ≤ 8 m, no swaps, inside 3 sigma ≥ 0.90; moored objects: followed "
