@@ -4,7 +4,6 @@ under its name; ``run`` strings them together.
 """
 from __future__ import annotations
 
-import ctypes
 import logging
 import platform as _platform
 import time
@@ -48,40 +47,6 @@ from rangeproc.tracking.routing import (
 )
 
 log = logging.getLogger(__name__)
-
-
-#: glibc's ``mallopt`` parameter numbers of the mmap and trim thresholds (malloc.h).
-M_MMAP_THRESHOLD, M_TRIM_THRESHOLD = -3, -1
-#: Allocations of at least this many bytes get pages of their own. glibc starts at 128 KiB;
-#: there (298,000-row bench sortie, three alternating runs) the peak was 49 MiB lower than at
-#: 1 MiB, but the system time of faulting in every new page of the arrays between the two
-#: sizes 0.4 s higher (2M-row sortie, one run: 57 MiB, 2.3 s).
-MMAP_THRESHOLD_BYTES = 1024 * 1024
-#: Free memory at the heap's top kept for later allocations before it is given back (glibc's
-#: own default is 128 KiB: every small array freed at the top and made again faulted anew).
-TRIM_THRESHOLD_BYTES = 32 * 1024 * 1024
-
-
-def fixed_mmap_threshold() -> bool:
-    """Keep glibc's mmap threshold at :data:`MMAP_THRESHOLD_BYTES` for this process (and
-    its trim threshold at :data:`TRIM_THRESHOLD_BYTES`).
-
-    glibc raises the threshold to the size of every mmapped block that is freed (up to
-    32 MiB), so after the first large array is let go, arrays up to that size come from the
-    heap, whose freed middle is not given back to the system: a long sortie's per-row arrays
-    (a few to tens of MiB each), freed stage after stage, stayed resident. A fixed threshold
-    gives each large array its own pages, returned when it is freed. Values are unchanged;
-    the cost is the system time of faulting in every new page of a large array (bench
-    sorties, one run each: 2M rows, peak 2306 -> 2059 MiB for 1.9 s more system time).
-    True when set (glibc); elsewhere nothing is done.
-    """
-    try:
-        libc = ctypes.CDLL(None)
-        return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
-                    and libc.mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES))
-    except (OSError, AttributeError, TypeError):     # not glibc: nothing to set
-        return False
-
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,7 +134,6 @@ def run(config_path: str | Path, *, clock: StageClock | None = None) -> RunOutpu
     display; the default shows nothing. Every warning logged on the way is also kept in
     ``summary["warnings"]`` (one line each) for the report page and the terminal's headline.
     """
-    fixed_mmap_threshold()
     with collect_warnings() as warnings:
         return _run(config_path, clock, warnings)
 

@@ -11,8 +11,9 @@ pass is ``SPEED_MARGIN`` times the fastest of them (:func:`track_speeds`), at le
 ``SPEED_FLOOR``, at most the general bound. The margin leaves room for an object faster than
 every track the first pass confirmed and for a track's speed measured below its true one (a
 narrower margin confines the gate further, and a new track on an object faster than it is
-never confirmed: the margin errs on the side of the general bound); the floor keeps a scene of moored objects only (every speed near 0) from a bound that no
-departing object meets. A new track's initial score is lower by the velocity volume the
+never confirmed: the margin errs on the side of the general bound); the floor keeps a
+scene of moored objects only (every speed near 0) from a bound that no departing object
+meets. A new track's initial score is lower by the velocity volume the
 bound leaves out (``tracking.initiation``), so a narrower gate does not by itself confirm
 clutter. Plots of stationary returns keep the general bound (``tracking.plot_tracker``).
 """
