@@ -83,6 +83,7 @@ plots, their positions), in the range ENU frame.
 """
 from __future__ import annotations
 
+from functools import partial
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -463,26 +464,26 @@ def track_plots(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
         return _track_scans(t, p, R, scan, clock, planar, stamp_sigma, several, *rest)
     if not retrodict:
         return tracker(t, p, R, scan, clock)
+    gate = float(chi2_ppf(GATE_PROBABILITY, 3))
+    stationary = partial(on_stationary_returns, p, R, scan, planar, gate)
     return moving_tracks(both_passes(tracker, t, p, R, scan, clock, 2 if planar else 3,
-                                     tails, CONFIRM_SCORE), p, R, planar)
+                                     tails, CONFIRM_SCORE, stationary), p, R, planar)
 
 
 def _track_scans(t: np.ndarray, p: np.ndarray, R: np.ndarray, scan: np.ndarray,
                  clock: np.ndarray, planar: bool, stamp_sigma: float,
-                 further_returns: bool, speed: float = INITIATION_SPEED,
+                 further_returns: bool, bound: np.ndarray | None = None,
                  scores: list | None = None) -> np.ndarray:
     """The tracker of :func:`track_plots` (arguments of ``tracking.two_passes.Tracker``,
     every plot usable, at least one): the label per plot (N,). With ``further_returns``
     (several returns per object a scan), a plot no confirmed track took within the pair gate
     of a plot one took in the same scan is that object's further return and starts no track
-    (:func:`_other_returns`)."""
+    (:func:`_other_returns`). bound: (N,) m/s, a new track's speed bound on each plot."""
     label = np.full(t.size, -1, dtype=np.int64)
     axes = 2 if planar else 3
     gate = float(chi2_ppf(GATE_PROBABILITY, 3))
     clutter = clutter_density(p, R, float(clock.max() - clock.min()) + 1.0, planar, clock)
-    bound = np.full(t.size, float(speed))      # on stationary returns, the general bound
-    if speed < INITIATION_SPEED:
-        bound[on_stationary_returns(p, R, scan, planar, gate)] = INITIATION_SPEED
+    bound = np.full(t.size, INITIATION_SPEED) if bound is None else bound
     live: list[_ImmTrack] = []
     done: list[_ImmTrack] = []
     order = np.argsort(scan, kind="stable")

@@ -41,34 +41,41 @@ from rangeproc.tracking.speed_bound import fitted_speed
 #: by at least this much (a likelihood ratio of e^2, about 7): near ties stay as tracked.
 SETTLE_MARGIN = 2.0
 
-#: The tracker as run here: (t, p, R, scan, clock, speed, scores) -> label (N,), -1 clutter,
-#: new tracks' speeds bounded at ``speed`` m/s, the score of each confirmed track appended to
+#: The tracker as run here: (t, p, R, scan, clock, bound, scores) -> label (N,), -1 clutter,
+#: the speed of a new track on each plot bounded at ``bound`` (N,) m/s, the score of each
+#: confirmed track appended to
 #: ``scores`` in label order (arguments as ``tracking.plot_tracker.track_plots``).
 Tracker = Callable[..., np.ndarray]
 
 
 def both_passes(track: Tracker, t: np.ndarray, p: np.ndarray, R: np.ndarray,
                 scan: np.ndarray, clock: np.ndarray, axes: int = 3,
-                tails: np.ndarray | None = None, confirm: float | None = None) -> np.ndarray:
+                tails: np.ndarray | None = None, confirm: float | None = None,
+                stationary: Callable[[], np.ndarray] | None = None) -> np.ndarray:
     """(N,) the track labels (-1 clutter) of ``track`` over plots t (N,) s, p (N, 3) m,
     R (N, 3, 3) m^2, scan (N,), clock (N,) (as ``tracking.plot_tracker.track_plots``;
     ``axes`` 2 for a planar sensor; ``tails`` the clock of the backward tracks' stray-tail
     rule, default ``clock``): a first forward pass with the general speed bound
     ``INITIATION_SPEED`` fits the bound of new tracks to the speeds of its confirmed tracks
-    (``tracking.speed_bound``); with it, the forward and the backward pass; with ``confirm``
+    (``tracking.speed_bound``), except on the plots ``stationary()`` (N,) bool marks (called
+    once, only when the bound narrows: stationary returns keep the general bound); with it, the
+    forward and the backward pass; with ``confirm``
     (the tracker's confirmation score) the forward tracks that held two objects in turn
     first given the backward grouping (``tracking.pass_splits.swapped_splits``); then the
     passes' exchanges settled (:func:`settled`) and each forward track given its backward
     partner's plots before and after it (``retrodiction.retrodicted``)."""
     scores: list[float] = []
     back_scores: list[float] = []
-    label = track(t, p, R, scan, clock, INITIATION_SPEED, scores)
+    bound = np.full(t.size, INITIATION_SPEED)
+    label = track(t, p, R, scan, clock, bound, scores)
     speed = fitted_speed(label, t, p, axes)
     if speed < INITIATION_SPEED:
+        keep = np.zeros(t.size, dtype=bool) if stationary is None else stationary()
+        bound = np.where(keep, INITIATION_SPEED, speed)
         scores.clear()
-        label = track(t, p, R, scan, clock, speed, scores)
-    back = backward_labels(lambda *a: track(*a, speed, back_scores), t, p, R, scan, clock,
-                           tails)
+        label = track(t, p, R, scan, clock, bound, scores)
+    back = backward_labels(lambda *a, bound_rev: track(*a, bound_rev, back_scores), t, p, R,
+                           scan, clock, tails, bound)
     if confirm is not None:
         label, scores = swapped_splits(label, back, scores, back_scores, clock, confirm)
     return retrodicted(settled(label, back, scores, back_scores), back, clock)

@@ -37,7 +37,8 @@ def _clutter_tracks(speed: float) -> int:
     n = 0
     for seed in range(10):
         t, p, R, scan = _sea_clutter(seed)
-        label = pt._track_scans(t, p, R, scan, scan.astype(float), True, 0.0, False, speed)
+        label = pt._track_scans(t, p, R, scan, scan.astype(float), True, 0.0, False,
+                                 np.full(t.size, speed))
         n += int(label.max()) + 1
     return n
 
