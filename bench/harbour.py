@@ -46,7 +46,8 @@ from typing import Any
 
 import pandas as pd
 
-from meta import rows as rows_of, with_meta  # bench/ is on sys.path: scripts, not a package
+# bench/ is on sys.path: scripts, not a package
+from meta import add_result_arguments, summarised, with_meta
 
 from rangeproc.evaluate import evaluate_run
 from rangeproc.pipeline import run
@@ -201,12 +202,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS)
     ap.add_argument("--gnn", action="store_true", help="also score Stone Soup's GNN")
-    ap.add_argument("--out", type=Path, default=Path("bench/harbour.json"))
-    ap.add_argument("--summarise", type=Path, metavar="JSON",
-                    help="print the tables of a result written before, run nothing")
+    add_result_arguments(ap, Path("bench/harbour.json"))
     args = ap.parse_args()
-    if args.summarise is not None:
-        print_tables(rows_of(json.loads(args.summarise.read_text())))
+    if summarised(args.summarise, print_tables):
         return
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="harbour-") as tmp:

@@ -21,6 +21,7 @@ objects) now write ``{"meta": ..., "rows": [...]}``; :func:`rows` reads either f
 from __future__ import annotations
 
 import datetime as dt
+import json
 import os
 import platform
 import subprocess
@@ -135,3 +136,21 @@ def rows(data: Any) -> list[Any]:
     """The rows of a bench result in either form: a bare list (files written before the meta
     block) or ``{"meta": ..., "rows": [...]}``."""
     return data["rows"] if isinstance(data, dict) else data
+
+
+def add_result_arguments(ap: Any, default_out: Path) -> None:
+    """``--out`` (the result file, default ``default_out``) and ``--summarise JSON`` (print
+    the tables of a result written before, run nothing) on the argparse parser ``ap``."""
+    ap.add_argument("--out", type=Path, default=default_out)
+    ap.add_argument("--summarise", type=Path, metavar="JSON",
+                    help="print the tables of a result written before, run nothing")
+
+
+def summarised(path: Path | None, print_tables: Any) -> bool:
+    """True after printing (``print_tables(rows)``) the rows of the result at ``path`` given
+    by ``--summarise``; False when it was not given."""
+    if path is None:
+        return False
+    print_tables(rows(json.loads(path.read_text())))
+    return True
+

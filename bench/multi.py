@@ -55,7 +55,8 @@ try:
 except ModuleNotFoundError:                       # Python 3.10
     import tomli as tomllib
 
-from meta import rows as rows_of, with_meta  # bench/ is on sys.path: scripts, not a package
+# bench/ is on sys.path: scripts, not a package
+from meta import add_result_arguments, summarised, with_meta
 
 from rangeproc.evaluate import evaluate_run
 from rangeproc.evaluate.multi import multi_object_metrics, summarise
@@ -335,12 +336,9 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--scale-objects", type=int, nargs="+", default=[10, 20],
                     help="object counts of kind scale (default: 10 and 20)")
-    ap.add_argument("--out", type=Path, default=Path("bench/multi.json"))
-    ap.add_argument("--summarise", type=Path, metavar="JSON",
-                    help="print the tables of a result written before, run nothing")
+    add_result_arguments(ap, Path("bench/multi.json"))
     args = ap.parse_args()
-    if args.summarise is not None:
-        print_tables(rows_of(json.loads(args.summarise.read_text())))
+    if summarised(args.summarise, print_tables):
         return
     rows = sweep(args.kinds, args.seeds, args.scale_objects)
     args.out.parent.mkdir(parents=True, exist_ok=True)
