@@ -70,8 +70,7 @@ class RunOutput:
 class _FreeingClock:
     """The run's :class:`StageClock` whose stages start by handing the C heap's free pages
     back (``io.memory.release_freed``): what the stages before let go leaves the resident
-    set instead of waiting, fragmented, for reuse. ``each_tick``: also at every progress
-    tick (the fuse stage ticks once a pass, and each pass lets go of the one before)."""
+    set instead of waiting, fragmented, for reuse."""
 
     clock: StageClock
 
@@ -81,19 +80,20 @@ class _FreeingClock:
         return self.clock.seconds
 
     @contextmanager
-    def stage(self, name: str, total: int = 1, *, each_tick: bool = False
-              ) -> Iterator[Callable[..., None]]:
+    def stage(self, name: str, total: int = 1) -> Iterator[Callable[..., None]]:
+        """``StageClock.stage``, the free pages handed back first."""
         with self.clock.stage(name, total) as tick:
             release_freed()
-            if not each_tick:
-                yield tick
-                return
+            yield tick
 
-            def freeing(n: int = 1, note: str = "") -> None:
-                release_freed()
-                tick(n, note)
 
-            yield freeing
+def freeing(tick: Callable[..., None]) -> Callable[..., None]:
+    """``tick(n=1, note="")`` that first hands the C heap's free pages back
+    (``io.memory.release_freed``)."""
+    def each(n: int = 1, note: str = "") -> None:
+        release_freed()
+        tick(n, note)
+    return each
 
 
 def without_objects(summary: AssociationSummary, gone: set[str]) -> AssociationSummary:
@@ -175,9 +175,9 @@ def _run(config_path: str | Path, clock_in: StageClock | None, warnings: list[st
         trial = replace(settings, restart_lockouts=False, discount_first_pass=False)
         associated = associate(cfg, rows, trial, priors, tick)
     parts_of = associated.parts_of
-    with clock.stage("fuse", len(parts_of) * (1 + settings.processing.noise_passes),
-                each_tick=True) as tick:
-        fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, tick)
+    with clock.stage("fuse", len(parts_of) * (1 + settings.processing.noise_passes)) as tick:
+        # each pass lets go of the one before: its pages handed back at each pass's tick
+        fused = fuse_objects(cfg, parts_of, sensor_ids, settings, priors, freeing(tick))
     with clock.stage("products", len(fused)) as tick:
         estimated = [oid for oid, _ in fused]
         fused, tracks, residuals, target_summary = settle(

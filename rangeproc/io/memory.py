@@ -5,25 +5,43 @@ freed for Arrow's own later use: memory that NumPy, numba and the rest of the ru
 reuse and that stays resident to the end (about 50 MB on the 2-million-row bench sortie,
 30 MB on a 298,000-row one). :func:`system_arrow_pool` reads through the C library's
 allocator instead, whose freed blocks the rest of the run does reuse; :func:`release_freed`
-returns the whole free pages of that heap to the system (glibc ``malloc_trim(0)``, through
-Arrow's system pool, a no-op elsewhere).
+returns the whole free pages of that heap to the system (glibc ``malloc_trim(0)``; a no-op
+where the C library has none). Arrow's own ``release_unused`` of its system pool does not
+(pyarrow 26: the resident set of a fragmented heap stays as it is).
 
 Neither changes a value: both decide only where freed bytes wait.
 """
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 import pyarrow as pa
 
 
-def release_freed() -> None:
+def _malloc_trim() -> ctypes._CFuncPtr | None:
+    """glibc's ``malloc_trim``, or None (another C library, or none found)."""
+    name = ctypes.util.find_library("c")
+    try:
+        return getattr(ctypes.CDLL(name), "malloc_trim", None) if name else None
+    except OSError:
+        return None
+
+
+_TRIM = _malloc_trim()
+
+
+def release_freed() -> bool:
     """Hand the free pages of the C heap back to the system (glibc ``malloc_trim(0)``): a
-    stage boundary's freed arrays then leave the resident set rather than wait for reuse.
-    Costs a walk of the heap's free lists (milliseconds) and a page fault for each page
-    touched again."""
-    pa.system_memory_pool().release_unused()
+    stage boundary's freed arrays then leave the resident set rather than wait, fragmented,
+    for reuse. Costs a walk of the heap's free lists (milliseconds) and a page fault for
+    each page touched again. False where there is no ``malloc_trim`` (nothing done)."""
+    if _TRIM is None:
+        return False
+    _TRIM(0)
+    return True
 
 
 @contextmanager
