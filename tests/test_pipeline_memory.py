@@ -1,0 +1,113 @@
+"""Memory a run lets go of stays gone: the Arrow reads leave nothing in Arrow's own pool, the
+fusion results are released before the report draws, and every stage starts by handing the
+C heap's free pages back (``io.memory``, ``pipeline``)."""
+from __future__ import annotations
+
+import weakref
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+import rangeproc.pipeline as pipeline
+from rangeproc.config import load_config
+from rangeproc.io.memory import release_freed, system_arrow_pool
+from rangeproc.progress import SilentDisplay, StageClock
+from rangeproc.stages.read import read_all
+
+from conftest import SAMPLE_CONFIG
+
+
+def test_the_read_stage_leaves_nothing_in_arrows_own_pool(scenario: Path) -> None:
+    default = pa.default_memory_pool()
+    if default.backend_name == "system":
+        pytest.skip("Arrow's default pool is the system allocator here")
+    held = default.bytes_allocated()
+    system_held = pa.system_memory_pool().bytes_allocated()
+    logs = read_all(load_config(scenario / SAMPLE_CONFIG))
+    # the columns the logs share with Arrow live in the system pool; the default one holds
+    # at most a stray buffer of the parser's (a few kB, let go on the next read)
+    in_default = default.bytes_allocated() - held
+    in_system = pa.system_memory_pool().bytes_allocated() - system_held
+    assert in_system > 10_000
+    assert in_default < in_system / 4
+    assert pa.default_memory_pool().backend_name == default.backend_name   # restored
+    assert sum(len(lg) for lg in logs.values()) > 0
+
+
+def test_the_default_pool_is_restored_when_a_read_fails() -> None:
+    name = pa.default_memory_pool().backend_name
+    with pytest.raises(RuntimeError), system_arrow_pool():
+        assert pa.default_memory_pool().backend_name == "system"
+        raise RuntimeError("a bad file")
+    assert pa.default_memory_pool().backend_name == name
+
+
+class _Watch(SilentDisplay):
+    """At each stage's start: which watched arrays are still alive, and how many times the
+    free pages were handed back so far."""
+
+    def __init__(self, trims: list[int]) -> None:
+        self.refs: dict[str, list[weakref.ref]] = {}
+        self.alive: dict[str, dict[str, int]] = {}
+        self.trims_at: dict[str, int] = {}
+        self.trims = trims
+
+    def start(self, stage: str, total: int) -> None:
+        self.alive.setdefault(stage, {k: sum(r() is not None for r in v)
+                                      for k, v in self.refs.items()})
+        self.trims_at.setdefault(stage, self.trims[0])
+
+
+def test_fusion_results_are_released_before_the_report_and_stages_trim(
+        scenario: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    trims = [0]
+    watch = _Watch(trims)
+    fuse_objects = pipeline.fuse_objects
+
+    def watched(*args, **kwargs):        # noqa: ANN002, ANN003, ANN202
+        fused = fuse_objects(*args, **kwargs)
+        watch.refs["fusion"] = [weakref.ref(a) for _, res in fused
+                                for a in (res.Ps, res.xs, res.res, res.batch.z)]
+        return fused
+
+    def counted() -> None:
+        trims[0] += 1
+
+    monkeypatch.setattr(pipeline, "fuse_objects", watched)
+    monkeypatch.setattr(pipeline, "release_freed", counted)
+    out = pipeline.run(scenario / SAMPLE_CONFIG, clock=StageClock(display=watch))
+    assert out.tracks
+    assert watch.alive["products"]["fusion"] == len(watch.refs["fusion"])  # the check can see
+    assert watch.alive["report"]["fusion"] == 0       # them, and they are gone by the report
+    # every stage handed the free pages back as it started (9 stage starts: write twice),
+    # the fuse stage also at each of its passes' ticks
+    order = ["read", "screen", "assemble", "associate", "fuse", "products", "write", "report"]
+    assert all(watch.trims_at[a] < watch.trims_at[b] for a, b in zip(order, order[1:]))
+    assert watch.trims_at["products"] - watch.trims_at["fuse"] > 1
+    assert trims[0] > 9
+
+
+def test_release_freed_gives_a_fragmented_heaps_pages_back() -> None:
+    if not release_freed():
+        pytest.skip("no malloc_trim in this C library")
+    keep, gone = [], []
+    for _ in range(3000):                 # 80 kB arrays: below glibc's mmap threshold, in
+        keep.append(np.ones(10_000))      # the heap, every other one freed
+        gone.append(np.ones(10_000))
+    del gone
+    before = _rss()
+    assert release_freed()
+    assert _rss() < before - 100 * 2**20  # of the 240 MB freed, most left the resident set
+    assert len(keep) == 3000
+
+
+def _rss() -> int:
+    """This process's resident set (bytes; Linux /proc), or skip."""
+    try:
+        text = Path("/proc/self/status").read_text()
+    except OSError:
+        pytest.skip("no /proc")
+    return int(next(line for line in text.splitlines() if line.startswith("VmRSS:")).split()[1]
+               ) * 1024
