@@ -345,8 +345,9 @@ class TargetSummary(TypedDict):
         "otherwise")]
     extent_sigma_m: Annotated[ExtentRecord, Doc(
         "for the same objects: the hull's 1-sigma spread (m) about the centre of the returns "
-        "fitted from the plots, `along` and `across` the heading (0 and 0 for a point, e.g. an "
-        "aircraft, or where the plots cannot tell hull from noise); the position covariance "
+        "fitted from the plots, `along` and `across` the heading: the upper confidence bound "
+        "(95 %) of the fit, at most the plots' whole spread about the track (small against "
+        "the noise for a point seen by many plots, e.g. an aircraft); the position covariance "
         "carries the largest of this, `reference_sigma_m`, `persistent_offset_sigma_m` and "
         "`return_spread_sigma_m` per axis, turned with the heading")]
     persistent_offset_sigma_m: Annotated[ExtentRecord, Doc(

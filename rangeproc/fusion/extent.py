@@ -21,10 +21,21 @@ likelihood, kept non-negative (Fisher scoring, :func:`fit_extent`; rows beyond t
 chi-square of the previous step left out of the next): the
 noise lies in the sensor's frame and the hull in the object's, so the two separate as the
 aspect turns against the line of sight (a random-matrix extent, Koch 2008, fitted in batch
-over the smoothed track). ``L^2`` and ``W^2`` count only where together they differ from 0 by
-more than three sigma (their Wald chi-square above :data:`SIGNIFICANCE`); a point target (an
-aircraft), whose spread is the sensor's noise, gets 0, and so does a geometry that cannot
-tell hull from noise.
+over the smoothed track).
+
+A hull that the rows cannot show is not a hull of 0: 45 radar plots of a 30 m ship over a
+few turns cannot tell its hull from the radar's noise, and a sigma without it lies 3-7 times
+inside the error. What the rows allow is kept instead: each of ``L^2``, ``W^2`` is its upper
+confidence bound ``theta + z se`` (``z`` = :data:`UPPER_Z`, one-sided 95 %; ``se`` from the
+fit's Fisher information ``2 (X^T X)^-1``, Wald), so a hull is reported as large as the rows
+cannot exclude, at most their whole second moment along that axis about the track
+(``mean (u . d)^2``, ``mean (u' . d)^2`` over the rows kept: the sensor's noise added to the
+hull, so the hull is no larger) and never less than the estimate ``theta`` itself. Where the
+fit cannot be made (fewer than :data:`MIN_ROWS` rows, or a singular information), that whole
+second moment is the bound (a prior from the returns' spread across scans). A point target
+seen by many rows (an aircraft's plots) gets ``z se``, which shrinks as ``1 / sqrt(rows)``
+against its noise; a hull seen from turning aspects by many rows gets its estimate, about
+``z se`` more.
 
 The object's extent is the largest ``(L^2, W^2)`` over its plot sensors (a sensor that
 returns the centroid of a cluster of hull points shows less of the hull than one that
@@ -49,9 +60,9 @@ RANGE = 0
 #: m/s: below this speed the smoothed velocity gives no heading; the extent counts equally
 #: along every horizontal axis.
 HEADING_SPEED = 1.0
-#: The hull counts where the Wald chi-square of its two variances (2 dof) exceeds this (the
-#: 99.73 % point, three sigma).
-SIGNIFICANCE = 11.83
+#: Standard errors above the fitted hull variance at which its upper confidence bound is taken
+#: (one-sided 95 %, a normal quantile).
+UPPER_Z = 1.645
 #: Rows a sensor needs for a fit.
 MIN_ROWS = 20
 #: Chi-square (2 dof, 99.9 %) beyond which a row is left out of the refit.
@@ -138,16 +149,15 @@ def _inverse_root(C: np.ndarray) -> np.ndarray:
 
 
 def fit_extent(d: np.ndarray, los: np.ndarray, r: np.ndarray, vel: np.ndarray) -> Extent:
-    """The hull's variances (module docstring) from one sensor's offsets ``d`` (M, 2) m, lines
-    of sight ``los`` (M, 2), ranges ``r`` (M,) m and smoothed velocities ``vel`` (M, 2) m/s.
+    """The hull's variances (module docstring: their upper confidence bounds) from one
+    sensor's offsets ``d`` (M, 2) m, lines of sight ``los`` (M, 2), ranges ``r`` (M,) m and
+    smoothed velocities ``vel`` (M, 2) m/s.
 
     Fisher scoring of the Gaussian likelihood of ``d_k ~ N(0, C_k(theta))``, ``C_k`` linear in
     the four variances: each step a non-negative least-squares fit of the whitened
     ``C_k^(-1/2) d_k d_k^T C_k^(-1/2)`` to the whitened basis matrices, whose entries have
     variance 2 at the solution, so the fit's covariance is ``2 (X^T X)^-1``."""
     m = d.shape[0]
-    if m < MIN_ROWS:
-        return Extent()
     speed = np.hypot(vel[:, 0], vel[:, 1])
     moving = (speed >= HEADING_SPEED)[:, None, None]
     u = vel / np.maximum(speed, 1e-9)[:, None]
@@ -155,8 +165,10 @@ def fit_extent(d: np.ndarray, los: np.ndarray, r: np.ndarray, vel: np.ndarray) -
     basis = np.stack([_outer(los), r[:, None, None] ** 2 * _outer(_turn(los)),
                       np.where(moving, _outer(u), iso),
                       np.where(moving, _outer(_turn(u)), iso)], axis=1)   # (M, 4, 2, 2)
-    D = d[:, :, None] * d[:, None, :]
     keep = np.ones(m, dtype=bool)
+    if m < MIN_ROWS:
+        return _whole_spread(d, basis, keep)
+    D = d[:, :, None] * d[:, None, :]
     # start: the plots' spread as noise along and across the line of sight
     C = _floored(np.broadcast_to(np.mean(D, axis=0), (m, 2, 2)).copy())
     theta, cov = np.zeros(4), np.full((4, 4), np.inf)
@@ -172,20 +184,30 @@ def fit_extent(d: np.ndarray, los: np.ndarray, r: np.ndarray, vel: np.ndarray) -
         try:
             cov = 2.0 * np.linalg.inv(A.T @ A)
         except np.linalg.LinAlgError:
-            return Extent()
+            return _whole_spread(d, basis, keep)
         C = _floored(np.einsum("kiab,i->kab", basis, theta))
         m2 = np.einsum("ka,kab,kb->k", d, _inverse(C), d)
+        if np.count_nonzero(m2 <= CHI2_2_999) < MIN_ROWS:
+            return _whole_spread(d, basis, keep)
         keep = m2 <= CHI2_2_999
-        if keep.sum() < MIN_ROWS:
-            return Extent()
-    hull = theta[2:]
-    try:
-        wald = float(hull @ np.linalg.solve(cov[2:, 2:], hull))
-    except np.linalg.LinAlgError:
+    se = np.sqrt(np.maximum(np.diag(cov)[2:], 0.0))
+    whole = _whole_spread(d, basis, keep)
+    upper = theta[2:] + UPPER_Z * se
+    if not np.all(np.isfinite(upper)):
+        return whole
+    return Extent(along=max(float(theta[2]), min(float(upper[0]), whole.along)),
+                  across=max(float(theta[3]), min(float(upper[1]), whole.across)))
+
+
+def _whole_spread(d: np.ndarray, basis: np.ndarray, keep: np.ndarray) -> Extent:
+    """The rows' whole second moment (m^2) along and across the heading about the track, the
+    largest the hull can be (module docstring): ``mean d^T B d`` over the rows ``keep`` (M,)
+    of offsets ``d`` (M, 2) m for the hull's basis matrices ``B`` (``basis[:, 2:]``, (M, 2, 2,
+    2)); 0 without rows."""
+    if not keep.any():
         return Extent()
-    if not wald > SIGNIFICANCE:                 # a point: its spread is the sensor's noise
-        return Extent()
-    return Extent(along=float(hull[0]), across=float(hull[1]))
+    q = np.einsum("ka,kjab,kb->kj", d[keep], basis[keep, 2:], d[keep])
+    return Extent(along=float(np.mean(q[:, 0])), across=float(np.mean(q[:, 1])))
 
 
 def plots_only(batch: MeasurementBatch, radar: np.ndarray) -> bool:

@@ -1,5 +1,6 @@
 """The hull's spread fitted from the plots' offsets about the track: recovered for a hull seen
-from turning aspects, 0 for a point target whose spread is the sensor's noise."""
+from turning aspects, bounded (not 0) for a hull the rows cannot show, and for a point target
+whose spread is the sensor's noise a bound below that noise that shrinks with the rows."""
 from __future__ import annotations
 
 import math
@@ -45,11 +46,26 @@ def test_a_hulls_spread_is_recovered_along_and_across(seed):
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
-def test_a_point_target_has_no_extent(seed):
-    # negative control: the same noise without a hull; the whole spread (metres, more than
-    # the hull above across) is the sensor's own
-    d, los, r, vel = _offsets(seed, length=0.0, beam=0.0, sigma_r=4.0, sigma_a=2.0 * DEG)
-    assert fit_extent(d, los, r, vel) == Extent()
+def test_a_point_targets_bound_lies_below_its_noise_and_shrinks(seed):
+    # the same noise without a hull (4 m in range, 4.2 m across at 120 m, nearly isotropic:
+    # the hardest to tell from a hull): what the rows cannot exclude stays below the noise's
+    # variance and shrinks with the rows, about as 1 / sqrt(rows)
+    few = fit_extent(*_offsets(seed, length=0.0, beam=0.0, sigma_r=4.0, sigma_a=2.0 * DEG))
+    many = fit_extent(*_offsets(seed, length=0.0, beam=0.0, n=6400, sigma_r=4.0,
+                                sigma_a=2.0 * DEG))
+    assert 0.0 < few.along < 16.0 and 0.0 < few.across < 16.0
+    assert many.along < 0.35 * few.along and many.across < 0.35 * few.across
+
+
+def test_a_hull_the_rows_cannot_show_is_bounded_not_zero():
+    # 45 rows of a 30 m ship with noise of its hull's size (3 m, 2 deg at 200 m): about half
+    # such draws do not show the hull at three sigma; its bound along the heading must still
+    # reach its variance (L^2 / 12) where a hull of 0 would leave the reference point outside
+    true_along = 30.0**2 / 12.0
+    along = [fit_extent(*_offsets(seed, length=30.0, beam=7.0, n=45, sigma_r=3.0,
+                                  sigma_a=2.0 * DEG, rng_m=200.0)).along
+             for seed in range(1, 21)]
+    assert sum(a >= 0.8 * true_along for a in along) >= 19, np.round(along, 1)
 
 
 def test_a_spread_counted_as_noise_would_miss_the_hull():
@@ -64,9 +80,15 @@ def test_a_spread_counted_as_noise_would_miss_the_hull():
     assert np.mean(np.abs(along) <= 3 * 0.2) < 0.2
 
 
-def test_too_few_rows_say_nothing():
+def test_too_few_rows_give_their_whole_spread():
+    # no fit from 10 rows: the hull is bounded by the rows' whole second moment along and
+    # across the heading about the track (noise and hull together), not taken as 0
     d, los, r, vel = _offsets(1, length=24.0, beam=7.0, n=10)
-    assert fit_extent(d, los, r, vel) == Extent()
+    u = vel / np.hypot(vel[:, 0], vel[:, 1])[:, None]
+    w = np.c_[-u[:, 1], u[:, 0]]
+    e = fit_extent(d, los, r, vel)
+    assert e.along == pytest.approx(np.mean(np.sum(d * u, axis=1) ** 2))
+    assert e.across == pytest.approx(np.mean(np.sum(d * w, axis=1) ** 2))
 
 
 def test_the_extent_turns_with_the_heading():

@@ -1,6 +1,7 @@
 """Seeded Monte Carlo on the simulator's harbour kind (extended hulls, antennas off the hull's
 centre, AR(1) camera errors, truth at the antenna): the objects rangeproc finds hold at least
-90 % of their epochs inside 3 sigma east and north, pooled over the draws, and a sigma that
+90 % of their epochs inside 3 sigma east and north, pooled over the draws and each in every
+draw (seed 5: a 32 m ship seen by 46 radar plots that cannot show its hull), and a sigma that
 leaves the reference point's spread out does not (the negative control)."""
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from rangeproc.evaluate.metrics import evaluate_run
 from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.simulate import simulate_multi
 
-SEEDS = (1, 2, 3)
+SEEDS = (1, 2, 3, 5)
 DURATION = 120.0            # s: the ship leaves its quay within it
 CUTOFF = 20.0               # m: the evaluation's pairing distance (a boat's hull and wake)
 
@@ -32,13 +33,23 @@ def _run(tmp: Path, seed: int) -> tuple[Path, Path]:
 def _inside(out: Path, truth: Path, spread: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Per epoch of the best matches: |error| <= 3 sigma east, north ((N,) bool each), with the
     written sigma or (``spread`` False) that sigma less the reference point's spread."""
-    fused = pd.read_parquet(out / "fused.parquet")
-    if fused.empty:                                          # a draw where none is found
+    per = _inside_per_object(out, truth, spread)
+    if not per:                                              # a draw where none is found
         return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)
+    return (np.concatenate([e for e, _ in per.values()]),
+            np.concatenate([n for _, n in per.values()]))
+
+
+def _inside_per_object(out: Path, truth: Path, spread: bool = True
+                       ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """:func:`_inside` per truth object with a best match: truth id -> (east, north)."""
+    fused = pd.read_parquet(out / "fused.parquet")
+    if fused.empty:
+        return {}
     m = evaluate_run(out, truth, cutoff=CUTOFF)
     true = pd.read_csv(truth)
     targets = json.loads((out / "summary.json").read_text())["targets"]
-    east, north = [], []
+    found = {}
     for tid, row in m["multi"]["truth"].items():
         match = row["best_match"]
         if match is None:
@@ -59,9 +70,8 @@ def _inside(out: Path, truth: Path, spread: bool = True) -> tuple[np.ndarray, np
             C = extent_covariance(ref, np.c_[f.ve, f.vn])
             var = var - np.c_[C[:, 0, 0], C[:, 1, 1]]
         ok = np.abs(err) <= 3 * np.sqrt(np.maximum(var, 0.0))
-        east.append(ok[close, 0])
-        north.append(ok[close, 1])
-    return np.concatenate(east), np.concatenate(north)
+        found[tid] = (ok[close, 0], ok[close, 1])
+    return found
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +86,17 @@ def test_found_objects_hold_three_sigma(runs):
           f"north {north.mean():.3f}")
     assert east.size > 500
     assert east.mean() >= 0.9 and north.mean() >= 0.9, (east.mean(), north.mean())
+
+
+def test_each_found_object_holds_three_sigma_in_each_draw(runs):
+    # pooled shares hide one object: seed 5's ship, whose plots cannot show its hull, held
+    # 0.59 of its epochs while the pool of four draws held 0.95
+    for out, truth in runs:
+        for tid, (east, north) in _inside_per_object(out, truth).items():
+            if east.size < 100:                              # a brief match says little
+                continue
+            assert east.mean() >= 0.9 and north.mean() >= 0.9, (out, tid, east.mean(),
+                                                                 north.mean())
 
 
 def test_a_sigma_without_the_spread_fails(runs):
