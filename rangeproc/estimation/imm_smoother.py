@@ -30,7 +30,7 @@ _unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
 
 #: Epochs ahead (backwards in time) whose history and output lines the smoother prefetches
 #: (``estimation.prefetch``): 4 and 16 measured alike (0.2 us an epoch off 2.5 on 20,000
-#: epochs); 8 sits between.
+#: epochs), 32 a little slower; 8 sits between.
 PREFETCH_AHEAD = 8
 
 
