@@ -20,12 +20,18 @@ from rangeproc.estimation.imm_models import (
     switch_matrix,
 )
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace, pack_n, unpack
+from rangeproc.estimation.prefetch import LINE_DOUBLES, prefetch
 
 _cholesky = njit(nogil=True, error_model="numpy", inline="always")(cholesky_inplace.py_func)
 _chol_solve = njit(nogil=True, error_model="numpy", inline="always")(chol_solve_inplace.py_func)
 _model_matrices = njit(nogil=True, error_model="numpy", inline="always")(
     model_matrices.py_func)
 _unpack = njit(nogil=True, error_model="numpy", inline="always")(unpack.py_func)
+
+#: Epochs ahead (backwards in time) whose history and output lines the smoother prefetches
+#: (``estimation.prefetch``): 4 and 16 measured alike (0.2 us an epoch off 2.5 on 20,000
+#: epochs), 32 a little slower; 8 sits between.
+PREFETCH_AHEAD = 8
 
 
 def _specialise(n_state: int) -> Callable:
@@ -72,7 +78,20 @@ def _specialise(n_state: int) -> Callable:
             mus[E - 1, i] = mu[E - 1, i]
         combine_n(Xn, Pn, mus[E - 1], xs[E - 1], T, dx, N_STATE)
         pack_n(T, Ps[E - 1], N_STATE)
+        blk = r * npk
         for k in range(E - 2, -1, -1):
+            kp = k - PREFETCH_AHEAD                             # the history read, the
+            if kp >= 0:                                         # output written, ahead
+                for b in range(0, blk, LINE_DOUBLES):
+                    prefetch(Pm, kp * blk + b)
+                for b in range(0, r * n, LINE_DOUBLES):
+                    prefetch(xm, kp * r * n + b)
+                for b in range(0, npk, LINE_DOUBLES):
+                    prefetch(Ps, kp * npk + b)
+                prefetch(xs, kp * n)
+                prefetch(mu, kp * r)
+                prefetch(omega, kp * r)
+                prefetch(mus, kp * r)
             dt = epoch_t[k + 1] - epoch_t[k]
             if dt != last_dt:                                   # regular steps: computed once
                 switch_matrix(Lam, dt, Pi, swork)
