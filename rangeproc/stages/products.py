@@ -125,6 +125,16 @@ def sensor_summaries(cfg: Config, raw: dict[str, SensorLog], logs: dict[str, Sen
                    "n_unstarted": 0, **_time_span(logs[s.id].time)} for s in cfg.sensors}
 
 
+def _track_span(track: TrackEstimate) -> dict[str, Any]:
+    """The entries of an object's summary that its written track sets: its first and last
+    epoch (s), their count and the largest position sigma (m, any axis)."""
+    n = len(track.time)
+    return {"t_start": float(track.time[0]) if n else None,
+            "t_end": float(track.time[-1]) if n else None, "n_epochs": n,
+            "max_sigma_position_m": float(np.sqrt(np.max(np.diagonal(
+                track.P[:, :3, :3], axis1=1, axis2=2)))) if n else None}
+
+
 def _target_summary(track: TrackEstimate, result: FusionResult,
                     settings: EstimatorSettings, reference_var: float,
                     extent_sigma: tuple[float, float],
@@ -146,9 +156,6 @@ def _target_summary(track: TrackEstimate, result: FusionResult,
         "persistent_offset_sigma_m": {"along": float(persistent_sigma[0]),
                                       "across": float(persistent_sigma[1])},
         "return_spread_sigma_m": float(spread_sigma),
-        "t_start": float(track.time[0]) if len(track.time) else None,
-        "t_end": float(track.time[-1]) if len(track.time) else None,
-        "n_epochs": len(track.time),
         "gaps": _gaps(t_used, 1.0),
         "spans": [list(sp) for sp in result.spans],
         "unwritten": [list(sp) for sp in track.unwritten],
@@ -161,8 +168,7 @@ def _target_summary(track: TrackEstimate, result: FusionResult,
         "divergence_resets": result.n_resets,
         "maneuver_norm": {"unit": "m/s^2", "given": p.maneuver_norm,
                           "imposed": result.maneuver_norm},
-        "max_sigma_position_m": float(np.sqrt(np.max(np.diagonal(
-            track.P[:, :3, :3], axis1=1, axis2=2)))) if len(track.time) else None}
+        **_track_span(track)}
 
 
 def _lever_arm(tid: str, result: FusionResult, radar: np.ndarray,
@@ -279,9 +285,7 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
     for track in tracks:                         # the summary's span of an extended object
         entry = targets.get(track.target_id)
         if entry is not None and len(track.time) != entry["n_epochs"]:
-            entry.update(t_start=float(track.time[0]), t_end=float(track.time[-1]),
-                         n_epochs=len(track.time), max_sigma_position_m=float(np.sqrt(np.max(
-                             np.diagonal(track.P[:, :3, :3], axis1=1, axis2=2)))))
+            entry.update(_track_span(track))
     return fused, tracks, residuals, targets
 
 
