@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
+from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
 from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
@@ -76,11 +76,9 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     if len(b) == 0:
         return np.full((int(result.grid.sum()), 3), np.nan)
     idx, sigma = _thinned(result, _row_sigma(result))
-    every = len(idx) == len(b)          # every row: the batch's own arrays, no row copies
-    rows = FilterRows(result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]),
-                      *(a if every else a[idx] for a in (b.model, b.z)),
-                      np.ascontiguousarray(sigma),
-                      *(a if every else a[idx] for a in (b.s, b.sv, b.Qr, b.sensor)))
+    kept = b if len(idx) == len(b) else b.rows(idx)     # every row: no row copies
+    rows = kept.with_sigma(np.ascontiguousarray(sigma)).filter_rows(
+        result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]))
     del sigma
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
