@@ -40,21 +40,20 @@ Tracker = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 
 def backward_labels(track: Tracker, t: np.ndarray, p: np.ndarray, R: np.ndarray,
                     scan: np.ndarray, clock: np.ndarray, tails: np.ndarray | None = None,
-                    bound: np.ndarray | None = None) -> np.ndarray:
+                    per_plot: tuple[np.ndarray, ...] = ()) -> np.ndarray:
     """(N,) the labels of ``track`` run over the plots in reverse time order (times, scans
     and clocks mirrored so that they increase; t (N,) s, p (N, 3) m, R (N, 3, 3) m^2, scan
     (N,), clock (N,) float as for ``tracking.plot_tracker.track_plots``), each backward
     track's stray tail returned to clutter (in the clock ``tails`` (N,), default ``clock``:
     one that counts a sensor's silences, ``tracking.plots.silent_clock``), given back in the
-    plots' own order. ``bound`` (N,) m/s, the new-track speed bound per plot, is passed
-    reversed to ``track`` as the keyword ``bound_rev`` where given."""
+    plots' own order. ``per_plot``: further (N,) arrays, passed to ``track`` after the clock
+    in the same reversed order (the new-track speed bound of ``tracking.two_passes``)."""
     rev = np.arange(t.size)[::-1]
     mirrored = (clock.max() - clock)[rev]
     tails = clock if tails is None else tails
-    extra = {} if bound is None else {"bound_rev": bound[rev]}
     label = stray_tails((tails.max() - tails)[rev],
                         track(-t[rev], p[rev], R[rev], (scan.max() - scan)[rev], mirrored,
-                              **extra))
+                              *(a[rev] for a in per_plot)))
     out = np.empty_like(label)
     out[rev] = label
     return out

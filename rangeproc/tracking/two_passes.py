@@ -74,8 +74,8 @@ def both_passes(track: Tracker, t: np.ndarray, p: np.ndarray, R: np.ndarray,
         bound = np.where(keep, INITIATION_SPEED, speed)
         scores.clear()
         label = track(t, p, R, scan, clock, bound, scores)
-    back = backward_labels(lambda *a, bound_rev: track(*a, bound_rev, back_scores), t, p, R,
-                           scan, clock, tails, bound)
+    back = backward_labels(lambda *a: track(*a, back_scores), t, p, R, scan, clock, tails,
+                           (bound,))
     if confirm is not None:
         label, scores = swapped_splits(label, back, scores, back_scores, clock, confirm)
     return retrodicted(settled(label, back, scores, back_scores), back, clock)
