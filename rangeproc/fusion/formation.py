@@ -50,8 +50,9 @@ RESOLUTION_ROW_SECONDS = 5.0
 
 def plot_cell(result: FusionResult, t0: float, stated: np.ndarray) -> np.ndarray | None:
     """(2, 2) m^2 the stated horizontal covariance of the ranged row of ``result``'s batch
-    nearest t0 (s): the sensor's stated range sigma along the line of sight, the row's range
-    times the stated azimuth sigma across it (``stated`` (S, 3): each sensor's stated sigmas
+    nearest t0 (s): the sensor's stated range sigma along the row's line of sight (turned from the
+    sensor's axes into range ENU by the row's rotation ``Qr``), the row's range times the
+    stated azimuth sigma across it (``stated`` (S, 3): each sensor's stated sigmas
     of range, azimuth, elevation, SI, ``stages.products.stated_position_sigma``); None
     without a ranged row of a sensor with both stated within ``RESOLUTION_ROW_SECONDS``."""
     b = result.batch
@@ -62,7 +63,10 @@ def plot_cell(result: FusionResult, t0: float, stated: np.ndarray) -> np.ndarray
         return None
     k = np.flatnonzero(near)[np.argmin(np.abs(b.t[near] - t0))]
     r, az = float(b.z[k, 0]), float(b.z[k, 1])
-    along = np.array([np.sin(az), np.cos(az)])            # azimuth from north, east of north
+    # the line of sight in the sensor's axes (azimuth east of the axes' north), turned into
+    # range ENU by the row's rotation (p = s + Qr^T d, as the measurement model has it)
+    sight = b.Qr[k].T @ np.array([np.sin(az), np.cos(az), 0.0])
+    along = sight[:2] / max(float(np.hypot(sight[0], sight[1])), 1e-12)
     across = np.array([along[1], -along[0]])
     s_r, s_a = float(sig[k, 0]), float(r * sig[k, 1])
     return s_r ** 2 * np.outer(along, along) + s_a ** 2 * np.outer(across, across)

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.fusion.formation import formation_spans
+from rangeproc.fusion.formation import formation_spans, plot_cell
 from rangeproc.results import TrackEstimate
 from rangeproc.settings import Geodetic
 
@@ -36,7 +36,8 @@ def _radar_rows(track: TrackEstimate) -> SimpleNamespace:
     z = np.full((t.size, 6), np.nan)
     z[:, 0] = np.hypot(p[:, 0], p[:, 1])
     z[:, 1] = np.arctan2(p[:, 0], p[:, 1])
-    return SimpleNamespace(batch=SimpleNamespace(t=t, z=z, sensor=np.zeros(t.size, int)))
+    return SimpleNamespace(batch=SimpleNamespace(t=t, z=z, sensor=np.zeros(t.size, int),
+                                                 Qr=np.tile(np.eye(3), (t.size, 1, 1))))
 
 
 def _scene(offset: float, dv: float, sigma_v: float = 0.5):
@@ -81,3 +82,20 @@ def test_resolved_or_diverging_neighbours_are_not_a_formation():
     assert formation_spans(tracks, results, FRAME, RATE, 100.0, STATED)[1] is tracks[1]
     tracks, _ = _scene(offset=10.0, dv=0.1)                 # no radar row: no resolution
     assert formation_spans(tracks, {}, FRAME, RATE, 100.0, STATED)[1] is tracks[1]
+
+
+def test_the_cell_lies_along_the_line_of_sight_of_a_turned_platform():
+    """A radar on a deck heading east measures azimuth from the bow: a boat 500 m north lies at
+    -90 deg in the radar's axes. Its cell is long across the line of sight (500 m x 2 deg =
+    17 m) and short along it (5 m): along north, not along the deck's west."""
+    heading_east = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # ENU -> deck
+    d = heading_east @ np.array([0.0, 500.0, 0.0])
+    z = np.full((1, 6), np.nan)
+    z[0, 0], z[0, 1] = 500.0, np.arctan2(d[0], d[1])
+    rows = SimpleNamespace(batch=SimpleNamespace(t=np.zeros(1), z=z, sensor=np.zeros(1, int),
+                                                 Qr=heading_east[None]))
+    cell = plot_cell(rows, 0.0, STATED)
+    north = np.array([0.0, 1.0])
+    assert abs(np.sqrt(north @ cell @ north) - 5.0) < 1e-9
+    east = np.array([1.0, 0.0])
+    assert abs(np.sqrt(east @ cell @ east) - 500.0 * np.radians(2.0)) < 1e-9
