@@ -44,7 +44,9 @@
    range and without ``track_id`` go, frame by frame, to the object whose line of sight they
    fit, where that object is already known across it and no other object fits nearly as
    well (their own clutter floor: the sensor's detections per frame over the sector they
-   span); the share used is in the summary.
+   span); the share used is in the summary. Where those rows reach beyond an object's span,
+   the object is re-estimated on them and step 5 runs again (a plot after missed scans that
+   the line of sight carries the object to is scored against it).
 7. What is left is unassigned, with the reason.
 
 Objects used for scoring are estimated by the centralised smoother without refinement
@@ -78,7 +80,7 @@ from rangeproc.tracking.objects import (
     as_batch,
     member_conflict,
 )
-from rangeproc.tracking.plot_association import reassign_members
+from rangeproc.tracking.plot_association import SPAN_MARGIN_SECONDS, reassign_members
 from rangeproc.tracking.plot_swaps import repair_heads
 from rangeproc.tracking.plot_jumps import cut_jumps
 from rangeproc.tracking.plot_tails import stray_tails
@@ -352,6 +354,9 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
     discovered = [k for k in discovered if objects.members.get(k)]
     angle_owner = _associate_angle_plots(objects, [*anchored, *discovered], angle_plots)
+    if _widen_spans(objects, [*anchored, *discovered]):   # step 5 again where angle plots
+        step5 = reassociate_plots(objects, [*anchored, *discovered], final, clutter, timings)
+        discovered = [k for k in discovered if objects.members.get(k)]
     names = _name_objects(objects, declared, anchored, discovered)
     members = {names[k]: objects.members[k] for k in [*declared, *discovered]
                if k in names and objects.members.get(k)}
@@ -403,6 +408,26 @@ def _associate_angle_plots(objects: Objects, keys: list[str],
         objects.members = reassign_members(objects.members, i, rows, owner, keys)
         out[i] = (rows, [keys[j] if j >= 0 else "" for j in owner])
     return out
+
+
+def _widen_spans(objects: Objects, keys: list[str]) -> list[str]:
+    """The objects of ``keys`` whose member rows after step 6 reach more than
+    ``SPAN_MARGIN_SECONDS`` beyond either end of their trajectory (angle-only plots seen
+    where no plot-tracked sensor saw the object), re-estimated on all their rows: step 5 then
+    scores the plots of that widened span against them (a radar plot after missed scans that
+    only the camera's line of sight carries the object to)."""
+    grown = []
+    for k in keys:
+        track, members = objects.tracks.get(k), objects.members.get(k)
+        if track is None or track.t.size == 0 or not members:
+            continue
+        t = np.concatenate([objects.rows[i].t[sel] for i, sel in members])
+        if (t.min() < track.t[0] - SPAN_MARGIN_SECONDS
+                or t.max() > track.t[-1] + SPAN_MARGIN_SECONDS):
+            grown.append(k)
+    tracks = thread_map(lambda k: objects.quick_track(objects.members[k], objects.priors.get(k)),
+                        grown, cost=lambda k: sum(s.size for _, s in objects.members[k]))
+    return [k for k, track in zip(grown, tracks) if objects.adopt(k, track)]
 
 
 def _name_objects(objects: Objects, declared: Sequence[str], anchored: list[str],

@@ -243,3 +243,17 @@ def test_a_clutter_plot_in_a_missed_scan_is_not_kept(tmp_path, monkeypatch) -> N
     monkeypatch.setattr(reassociation, "KEEP_PROBABILITY", 1.0)
     run(simulate_multi(tmp_path / "before", kind="surveillance", seed=6))
     assert clutter_kept(tmp_path / "before") >= 1
+
+
+def test_plots_after_missed_scans_join_an_object_the_theodolite_carries_there(tmp_path) -> None:
+    """mixed, seed 8: U1's surveillance plots stop at 98 s and come back at 114 and 118 s,
+    after three missed scans; only the theodolite's angle-only rows follow it in between. Step
+    5 ran before those rows widened U1's span, so the two plots lay outside it and were
+    clutter, and U1's last 20 s were ranged by nothing (errors of 100-400 m). Step 5 is run
+    again on the widened span: both plots are U1's object's."""
+    run(simulate_multi(tmp_path, kind="mixed", seed=8))
+    table = _association(tmp_path)
+    u1 = table[(table.true == "U1") & (table.sensor == "SR1")].sort_values("row")
+    owner = u1.target_id.fillna("").value_counts().index[0]
+    assert owner
+    assert (u1.target_id.iloc[-2:] == owner).all(), u1.tail(3)
