@@ -18,7 +18,10 @@ while a coasting track's gate, grown over those scans, holds a clutter plot far 
 and fewer than ``CONFIRM_SCANS`` plots could not have confirmed a track on their own (Wald's
 sequential test of the tracker). So a track's last run of plots, when it follows at least
 ``STRAY_MISSES`` missed scans and holds fewer than ``CONFIRM_SCANS`` plots, is returned to
-clutter, as if the tracker had deleted the track at the gap. Nothing is lost for an object
+clutter, as if the tracker had deleted the track at the gap; and so is the run before it
+when it too follows such a gap and holds as few plots (a track that coasted out of a lidar's
+view took one clutter plot 22 s later and another 10 s after that: deleted at the first
+gap, it would have taken neither), back to the last run that could have confirmed a track. Nothing is lost for an object
 whose plots they are: step 5 of synthesis (``tracking.reassociation``) scores every clutter
 plot against the finished objects and gives it to the object that gates it or whose span it
 continues. The track's head is left to ``tracking.plot_swaps`` (a tentative track that
@@ -45,9 +48,10 @@ def stray_tails(clock: np.ndarray, label: np.ndarray) -> np.ndarray:
         mine = np.flatnonzero(label == k)
         mine = mine[np.argsort(clock[mine], kind="stable")]
         gaps = np.flatnonzero(np.diff(clock[mine]) - 1.0 >= STRAY_MISSES - 0.5)
-        if gaps.size == 0:
-            continue
-        tail = mine[gaps[-1] + 1:]
-        if tail.size < CONFIRM_SCANS:
-            out[tail] = -1
+        end = mine.size
+        for g in gaps[::-1]:              # the last run, then the one before it, ...
+            if end - (g + 1) >= CONFIRM_SCANS:
+                break
+            end = g + 1
+        out[mine[end:]] = -1
     return out

@@ -202,7 +202,7 @@ def sensor_segments(sensor: int, rows: SensorRows
                                              planar, timing.stamp_sigma, several=several,
                                              tails=timing.silent))
             label = cut_jumps(rows.t[ranged], p, R, timing.clock,
-                              stray_tails(timing.clock, label), timing.stamp_sigma)
+                              stray_tails(timing.silent, label), timing.stamp_sigma)
             if not several:                                   # one return per object a scan
                 label, ghosts = ghost_tracks(timing.frame, z[:, 0], z[:, 1], z[:, 2],
                                              rows.sigma[ranged][:, :3], label, planar)
