@@ -21,11 +21,11 @@ sequential test of the tracker). So a track's last run of plots, when it follows
 clutter, as if the tracker had deleted the track at the gap; and so is the run before it
 when it too follows such a gap and holds as few plots (a track that coasted out of a lidar's
 view took one clutter plot 22 s later and another 10 s after that: deleted at the first
-gap, it would have taken neither), back to the last run that could have confirmed a track. Nothing is lost for an object
-whose plots they are: step 5 of synthesis (``tracking.reassociation``) scores every clutter
-plot against the finished objects and gives it to the object that gates it or whose span it
-continues. The track's head is left to ``tracking.plot_swaps`` (a tentative track that
-misses scans does not live to be confirmed).
+gap, it would have taken neither), back to the last run that could have confirmed a track.
+Nothing is lost for an object whose plots they are: step 5 of synthesis
+(``tracking.reassociation``) scores every clutter plot against the finished objects and gives
+it to the object that gates it or whose span it continues. The track's head is left to
+``tracking.plot_swaps`` (a tentative track that misses scans does not live to be confirmed).
 """
 from __future__ import annotations
 
