@@ -258,7 +258,7 @@ def _specialise(family: Family, n_state: int) -> Callable:
                                                      loglik, nis, rejected, ll_rows)
                                 consecutive[sensor[i]] = 0   # the guard's count restarts
                             else:                        # per-component re-gating
-                                val, ok, _, mask, ll_row = fu.update(   # the general
+                                val, ok, _, mask, ll_row = fu.regate(   # the general
                                     f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate,
                                     joseph, ROW_NOISE, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt,
                                     f_AP, f_APHt, f_sdiag, ew, Sinv)  # update's signature
