@@ -142,7 +142,7 @@ def hampel_flags(t: np.ndarray, x: np.ndarray, half_width: int, threshold: float
         slope[j] = (x[j + step] - x[j]) / dt if usable[j] else 0.0
     slopes = np.empty(w)
     vals = np.empty(w)
-    m = 0
+    m = np.int64(0)        # not the literal 0: one compiled _sorted_insert/_remove each
     window_lo = -1
     for i in range(n):
         lo = min(max(i - half_width, 0), n - w)

@@ -210,7 +210,7 @@ def epoch_innovations(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.
             y6[a] = t[a, 0]
         if not cholesky_inplace(S, m):
             continue
-        chol_solve_inplace(S, m, t, 1)
+        chol_solve_inplace(S, m, t, np.int64(1))
         nis = 0.0
         for a in range(m):
             nis += y6[a] * t[a, 0]

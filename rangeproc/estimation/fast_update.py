@@ -21,8 +21,9 @@ than nine.
 The helpers are inlined into the kernel (``inline="always"``): a call of a separately
 compiled helper with array arguments costs reference counting on every array, more than the
 arithmetic of a small row. The gated update is not a copy: it is ``estimation.update``'s one
-source compiled with this path's sizes (``update.specialise_update``), and the moments'
-``H P`` and ``H P H^T`` are ``moments.cross_moments`` at three columns.
+source compiled with this path's sizes (``update.specialise_update``), or in the EKF loop,
+where a row the whole-row gate rejects is rare, the general update called (:data:`regate`);
+the moments' ``H P`` and ``H P H^T`` are ``moments.cross_moments`` at three columns.
 """
 from __future__ import annotations
 
@@ -32,7 +33,8 @@ import numpy as np
 from numba import njit
 
 from rangeproc.estimation.moments import LIN_NOISE_SHARE, cross_moments
-from rangeproc.estimation.update import LOG_2PI, specialise_update
+from rangeproc.estimation.kernels import N_OBSERVED
+from rangeproc.estimation.update import LOG_2PI, specialise_update, update_row
 from rangeproc.models.measurement import (
     AZIMUTH,
     CARTESIAN,
@@ -53,11 +55,14 @@ NP = 3
 def fast_workspace():
     """Work arrays of the fast path, ``(idx, sel, sig_row, sig, y, yw, sdiag, C, Z, Hs, S, HP,
     Kt, AP, APHt, winv, dinv)``: index and sigma vectors (3,), innovations (3,), ``C``,
-    ``HP``, ``Kt`` (3, 9), ``Z``, ``Hs``, ``S`` (3, 3), ``AP`` (9, 9), ``APHt`` (9, 3), and
+    ``HP``, ``Kt`` (3, 9), ``Z``, ``S`` (3, 3), ``Hs`` (3, ``N_OBSERVED``) zeros (the
+    position columns written, the others kept zero: :data:`regate`), ``AP`` (9, 9), ``APHt``
+    (9, 3), and
     :func:`whole_row`'s reciprocals ``winv``, ``dinv`` (6,)."""
     return (np.empty(NP, dtype=np.int64), np.empty(NP, dtype=np.int64), np.empty(NP),
             np.empty(NP), np.empty(NP), np.empty(NP), np.empty(NP), np.empty((NP, N)),
-            np.empty((NP, NP)), np.empty((NP, NP)), np.empty((NP, NP)), np.empty((NP, N)),
+            np.empty((NP, NP)), np.zeros((NP, N_OBSERVED)), np.empty((NP, NP)),
+            np.empty((NP, N)),
             np.empty((NP, N)), np.empty((N, N)), np.empty((N, NP)), np.empty(N_COMPONENTS),
             np.empty(N_COMPONENTS))
 
@@ -177,11 +182,22 @@ def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, Qr:
     return m
 
 
-#: The gated update of a fast-path row: ``update.update_row``'s source compiled at n = 9 with
-#: the Jacobian in the position columns and no Sage-Husa statistics, inlined (the same
-#: operations in the same order); returns ``(nis, accepted, n_accepted, mask, loglik)``. The
-#: fast path calls it for a row :func:`whole_row` rejects (its per-component re-gating).
+#: The gated update of a fast-path row that :func:`whole_row` rejects (its per-component
+#: re-gating): ``update.update_row``'s source compiled at n = 9 with the Jacobian in the
+#: position columns and no Sage-Husa statistics, inlined (the same operations in the same
+#: order), for the loops where rejected rows are common: the IMM (a row under a model that
+#: does not fit the motion) and the UKF's fixed-size rows (:func:`row_update`). Returns
+#: ``(nis, accepted, n_accepted, mask, loglik)``.
 _, update = specialise_update(N, NP, "always", False)
+
+#: The EKF loop's re-gating, where a rejected row is rare (a wild value): the general
+#: ``update.update_row`` itself, called, not inlined, so that the loop compiles one gated
+#: update for both paths and its hot body stays small (issue 44 item 6). Its Joseph term runs
+#: over ``kernels.N_OBSERVED`` Jacobian columns; the fast path's ``Hs``
+#: (:func:`fast_workspace`) keeps the columns beyond position at exact zero, whose terms
+#: leave every sum's bits unchanged (a sum started at +0.0 is never -0.0, and adding a signed
+#: zero to any other value returns it): the same results as :data:`update`.
+regate = update_row
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

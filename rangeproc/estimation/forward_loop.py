@@ -258,10 +258,10 @@ def _specialise(family: Family, n_state: int) -> Callable:
                                                      loglik, nis, rejected, ll_rows)
                                 consecutive[sensor[i]] = 0   # the guard's count restarts
                             else:                        # per-component re-gating
-                                val, ok, _, mask, ll_row = fu.update(
+                                val, ok, _, mask, ll_row = fu.regate(   # the general
                                     f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, m, x, P, gate,
-                                    True, False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP,
-                                    f_APHt, f_sdiag, ew, Sinv)
+                                    joseph, ROW_NOISE, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt,
+                                    f_AP, f_APHt, f_sdiag, ew, Sinv)  # update's signature
                                 loglik = _record_row(i, val, mask, ll_row, loglik, nis,
                                                      rejected, ll_rows)
                                 _guard_row(val, ok, mask, m, gate, k, sensor[i], consecutive,

@@ -92,9 +92,11 @@ LIN_NOISE_SHARE = 1e-3
 LIN_NOISE_CAP = 1e-3
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _mul3(A: np.ndarray, B: np.ndarray, out: np.ndarray, b_transposed: bool) -> None:
-    """``out = A B`` (or ``A B^T``) of the leading (3, 3) blocks."""
+    """``out = A B`` (or ``A B^T``) of the leading (3, 3) blocks. Inlined: called with
+    ``b_transposed`` a literal True and False, it compiled twice (two Literal[bool]
+    signatures) for a few multiplications."""
     for a in range(3):
         for b in range(3):
             acc = 0.0

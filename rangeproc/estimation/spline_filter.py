@@ -157,7 +157,7 @@ def epoch_chi2(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray
     for a in range(N_OBSERVED):                          # P_66 = L L^T
         for c in range(N_OBSERVED):
             L[a, c] = P[a, c]
-    if not cholesky_inplace(L, N_OBSERVED):
+    if not cholesky_inplace(L, np.int64(N_OBSERVED)):
         return 0.0, 0
     for a in range(N_OBSERVED):                          # c = L^T b  (into t[:, 0])
         acc = 0.0
@@ -180,9 +180,9 @@ def epoch_chi2(i0: int, meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray
         S[a, a] += 1.0
     for a in range(N_OBSERVED):
         b[a] = t[a, 0]
-    if not cholesky_inplace(S, N_OBSERVED):
+    if not cholesky_inplace(S, np.int64(N_OBSERVED)):
         return 0.0, 0
-    chol_solve_inplace(S, N_OBSERVED, t, 1)
+    chol_solve_inplace(S, np.int64(N_OBSERVED), t, np.int64(1))
     red = 0.0
     for a in range(N_OBSERVED):
         red += b[a] * t[a, 0]

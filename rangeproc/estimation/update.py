@@ -122,7 +122,8 @@ def specialise_update(n_fixed: int, n_cols: int, inline: str, stats: bool) -> tu
         if INLINE:
             _chol_solve(S, m, Kt, 1)
         else:
-            chol_solve_inplace(S, m, Kt, 1)
+            chol_solve_inplace(S, m, Kt, np.int64(1))      # int64, not Literal[int](1):
+            # the n-column call's compiled solve serves it (one signature)
         nis = 0.0
         for a in range(m):
             nis += yw[a] * Kt[a, 0]

@@ -132,7 +132,7 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
         e = epoch[i] if epoch[i] >= 0 else _nearest_epoch(ot, t[r])
         _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
-        m = 0
+        m = np.int64(0)            # not the literal 0: one compiled cholesky_inplace
         for c in range(N_COMPONENTS):
             if not math.isnan(z[r, c]):
                 idx_all[i, m] = c
@@ -140,7 +140,8 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
         m_all[i] = m
         if m == 0:
             continue
-        h_all[i] = h
+        for c in range(N_COMPONENTS):      # a row assignment compiles numba's
+            h_all[i, c] = h[c]             # shape-mismatch message (text, seconds)
         S = L[i]
         log_ext = 0.0
         for a in range(m):                 # H P over the measured rows (H has no
@@ -200,7 +201,7 @@ def row_llr(sel: np.ndarray, model: np.ndarray, z: np.ndarray, offset: np.ndarra
             llr[i] = math.log(eps)
             continue
         w = nu.copy().reshape(m, 1)
-        chol_solve_inplace(L[i], m, w, 1)
+        chol_solve_inplace(L[i], m, w, np.int64(1))
         d2 = 0.0
         for a in range(m):
             d2 += nu[a] * w[a, 0]
@@ -297,8 +298,8 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
             D[a, a] += sigma[r, comp[a]] ** 2
         if not cholesky_inplace(D, m):
             continue
-        chol_solve_inplace(D, m, W, 9)                    # D⁻¹ H P
-        chol_solve_inplace(D, m, res, 1)                  # D⁻¹ r
+        chol_solve_inplace(D, m, W, np.int64(9))          # D⁻¹ H P
+        chol_solve_inplace(D, m, res, np.int64(1))        # D⁻¹ r
         for a in range(9):
             acc = 0.0
             for b in range(m):

@@ -35,7 +35,7 @@ def _row(seed: int, wild: float = 0.0, angles_only: bool = False):
     if angles_only:
         z[0, 0] = np.nan
     idx, sig_row, y = np.empty(3, np.int64), np.empty(3), np.empty(3)
-    C, Z, Hs = np.empty((3, 9)), np.empty((3, 3)), np.empty((3, 3))
+    C, Z, Hs = np.empty((3, 9)), np.empty((3, 3)), np.zeros((3, 6))   # fast_workspace's
     m = fu.ekf_moments(SPHERICAL, z, sigma, SITE[None], np.eye(3)[None], 0, x,
                        np.empty((0, 9)), 0, False, P, idx, sig_row, y, C, Z, Hs)
     return x, P, (y, sig_row, C, Z, Hs, idx), m
