@@ -119,6 +119,9 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     covariance of every epoch, turned with the smoothed heading (``fusion.extent``); a
     ``lever_arm`` (forward, right, down; m) moves the reported point by it in the body frame
     of the smoothed heading (``fusion.extent.held_heading``; the velocity is left as it is)."""
+    # the achievable pass first: its forward history (an (E, 45) covariance per epoch) is let
+    # go before the grid's covariances are unpacked, so the two are never resident together
+    on_grid = achievable_sigma(result)
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -130,7 +133,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
         P = P.copy()
         P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])
     achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
-    achievable[~filled] = achievable_sigma(result)
+    achievable[~filled] = on_grid
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
     unwritten = left_out(t, keep)

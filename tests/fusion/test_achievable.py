@@ -3,10 +3,13 @@ run used its rows as the instruments allow, smaller where the data were worse th
 instruments (a GPS noise burst), and the long-span thinning equivalent to every row."""
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import pytest
 
 import rangeproc.fusion.achievable as ach
+import rangeproc.fusion.products as products
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_scenario
 from rangeproc.simulate.scenario import draw_scenario
@@ -43,3 +46,27 @@ def test_a_long_span_thinned_with_scaled_sigma_gives_the_same(tmp_path, monkeypa
     monkeypatch.setattr(ach, "MAX_ROWS", 600)          # about 1,000 rows: each series by 2
     thinned = run(cfg).tracks[0].achievable
     assert np.median(thinned / whole) == pytest.approx(1.0, abs=0.03)
+
+
+def test_the_pass_history_is_let_go_before_the_grid_covariances(tmp_path, monkeypatch):
+    # the achievable pass's smoothed covariances (one per epoch) are gone before the output
+    # grid's are unpacked: a long sortie never holds both (products stage's peak)
+    cfg = simulate_scenario(tmp_path, seed=2, duration=40.0, sensors="R1,G1")
+    smoothed: list[weakref.ref] = []
+    seen: list[tuple[int, int]] = []        # at each unpack: passes run, their arrays alive
+    rts, unpack = ach.rts_smooth, products.unpack_many
+
+    def watched_rts(*args):
+        out = rts(*args)
+        smoothed.append(weakref.ref(out[1]))
+        return out
+
+    def watched_unpack(*args):
+        seen.append((len(smoothed), sum(r() is not None for r in smoothed)))
+        return unpack(*args)
+
+    monkeypatch.setattr(ach, "rts_smooth", watched_rts)
+    monkeypatch.setattr(products, "unpack_many", watched_unpack)
+    assert run(cfg).tracks
+    assert seen and all(n >= 1 for n, _ in seen)        # the pass ran first ...
+    assert [alive for _, alive in seen] == [0] * len(seen)   # ... and was let go
