@@ -44,9 +44,10 @@
    range and without ``track_id`` go, frame by frame, to the object whose line of sight they
    fit, where that object is already known across it and no other object fits nearly as
    well (their own clutter floor: the sensor's detections per frame over the sector they
-   span); the share used is in the summary. Where those rows reach beyond an object's span,
-   the object is re-estimated on them and step 5 runs again (a plot after missed scans that
-   the line of sight carries the object to is scored against it).
+   span); the share used is in the summary. Where an object's rows now reach beyond its
+   trajectory (these, or a segment that joined in step 3's last round, which ends without
+   re-estimating), the object is re-estimated and step 5 runs again (a plot after missed
+   scans that the object's other rows carry it to is scored against it).
 7. What is left is unassigned, with the reason.
 
 Objects used for scoring are estimated by the centralised smoother without refinement
@@ -412,10 +413,12 @@ def _associate_angle_plots(objects: Objects, keys: list[str],
 
 def _widen_spans(objects: Objects, keys: list[str]) -> list[str]:
     """The objects of ``keys`` whose member rows after step 6 reach more than
-    ``SPAN_MARGIN_SECONDS`` beyond either end of their trajectory (angle-only plots seen
-    where no plot-tracked sensor saw the object), re-estimated on all their rows: step 5 then
-    scores the plots of that widened span against them (a radar plot after missed scans that
-    only the camera's line of sight carries the object to)."""
+    ``SPAN_MARGIN_SECONDS`` beyond either end of their trajectory, re-estimated on all their
+    rows: step 5 then scores the plots of that widened span against them (a radar plot after
+    missed scans that only a theodolite or camera carries the object to). Rows lie beyond the
+    trajectory when step 6 gave the object angle-only plots there, or when a segment joined
+    it in the last round of :func:`_grow`, which ends without re-estimating (module
+    docstring, step 6)."""
     grown = []
     for k in keys:
         track, members = objects.tracks.get(k), objects.members.get(k)

@@ -247,10 +247,11 @@ def test_a_clutter_plot_in_a_missed_scan_is_not_kept(tmp_path, monkeypatch) -> N
 
 def test_plots_after_missed_scans_join_an_object_the_theodolite_carries_there(tmp_path) -> None:
     """mixed, seed 8: U1's surveillance plots stop at 98 s and come back at 114 and 118 s,
-    after three missed scans; only the theodolite's angle-only rows follow it in between. Step
-    5 ran before those rows widened U1's span, so the two plots lay outside it and were
-    clutter, and U1's last 20 s were ranged by nothing (errors of 100-400 m). Step 5 is run
-    again on the widened span: both plots are U1's object's."""
+    after three missed scans; only the theodolite's track (angles, 78-120 s) follows it in
+    between. That track joined U1's object in the last round of growth, which ends without
+    re-estimating, so the object's trajectory still ended at 98 s: the two plots lay outside
+    it and were clutter, and U1's last 20 s were ranged by nothing (errors of 100-400 m).
+    Step 5 is run again on the widened span: both plots are U1's object's."""
     run(simulate_multi(tmp_path, kind="mixed", seed=8))
     table = _association(tmp_path)
     u1 = table[(table.true == "U1") & (table.sensor == "SR1")].sort_values("row")
