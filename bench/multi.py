@@ -370,7 +370,10 @@ def print_tables(rows: list[dict]) -> None:
           f"scored)")
     for kind, a in acc.items():
         if "honest" in a:
-            print(f"{kind:<16}{a['honest']:>4} of {a['scored_honesty']:<4} "
+            shares = [r["inside_3sigma"] for r in rows if r["kind"] == kind
+                      and honest(r) is not None]
+            pooled = f"mean {sum(shares) / len(shares):.3f}  " if shares else ""
+            print(f"{kind:<16}{a['honest']:>4} of {a['scored_honesty']:<4} {pooled}"
                   f"{'; '.join(a['not_honest'])}")
 
 
