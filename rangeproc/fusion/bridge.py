@@ -13,15 +13,25 @@ through the motion and its noise), are combined in information form:
 ``P = (P_f⁻¹ + P_r⁻¹)⁻¹``, ``x = P (P_f⁻¹ x_f + P_r⁻¹ x_r)`` (the two-filter smoother
 across a gap without data; the spans' estimates are independent).
 ``Q`` is the white-jerk noise with the larger of the two ends' process noise, so the
-uncertainty grows towards the middle of the gap as the motion model says it must. Gaps
-longer than ``max_seconds`` are left empty (an object seen again hours later is not drawn
-across the sky).
+uncertainty grows towards the middle of the gap as the motion model says it must, plus the
+white-acceleration noise of a manoeuvre (``models.motion.manoeuvre_psd``: the PSD the plot
+trackers' manoeuvre model gives an object of the larger of the two ends' speeds): the
+ends' process noise describes how the object moved while it was seen, and nothing says it
+kept to that while unseen. A manoeuvre is a turn, bounded by the speed, so a boat's bridge
+widens by metres where an aircraft's widens by hundreds (docs/methods/estimators.md, "Gaps
+between spans", with the measured case). Gaps longer than ``max_seconds`` are left empty (an
+object seen again hours later is not drawn across the sky).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.models.motion import axes_blocks, ca_steps
+from rangeproc.models.motion import (
+    axes_blocks,
+    ca_steps,
+    manoeuvre_psd,
+    white_acceleration_q,
+)
 
 
 def ca_transition(dt: np.ndarray) -> np.ndarray:
@@ -37,14 +47,29 @@ def ca_noise(dt: np.ndarray, q: float) -> np.ndarray:
     return axes_blocks(ca_steps(a, q)[1])
 
 
+def manoeuvre_noise(dt: np.ndarray, q: float) -> np.ndarray:
+    """(M, 9, 9) white-acceleration noise of position and velocity over ``|dt|`` (M,) s
+    with PSD ``q`` ((m/s^2)^2/s) (``models.motion.white_acceleration_q``; the acceleration
+    states take none)."""
+    a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
+    q00, q01, q11 = white_acceleration_q.py_func(a, q)
+    B = np.zeros((a.size, 3, 3))
+    B[:, 0, 0], B[:, 0, 1], B[:, 1, 0], B[:, 1, 1] = q00, q01, q01, q11
+    return axes_blocks(B)
+
+
 def _fit(t: np.ndarray, ta: float, xa: np.ndarray, Pa: np.ndarray, tb: float,
-         xb: np.ndarray, Pb: np.ndarray, q: float) -> tuple[np.ndarray, np.ndarray]:
-    """(M, 9) states and (M, 9, 9) covariances at times ``t`` (M,) inside the gap."""
+         xb: np.ndarray, Pb: np.ndarray, q: float, qm: float
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """(M, 9) states and (M, 9, 9) covariances at times ``t`` (M,) inside the gap, with
+    white-jerk PSD ``q`` and manoeuvre PSD ``qm`` (module docstring)."""
     Ff, Fr = ca_transition(t - ta), ca_transition(t - tb)
     xf = Ff @ xa
-    Pf = Ff @ Pa @ np.transpose(Ff, (0, 2, 1)) + ca_noise(t - ta, q)
+    Pf = (Ff @ Pa @ np.transpose(Ff, (0, 2, 1)) + ca_noise(t - ta, q)
+          + manoeuvre_noise(t - ta, qm))
     xr = Fr @ xb
-    Pr = Fr @ (Pb + ca_noise(tb - t, q)) @ np.transpose(Fr, (0, 2, 1))
+    Pr = Fr @ (Pb + ca_noise(tb - t, q) + manoeuvre_noise(tb - t, qm)) @ np.transpose(
+        Fr, (0, 2, 1))
     If, Ir = np.linalg.inv(Pf), np.linalg.inv(Pr)
     P = np.linalg.inv(If + Ir)
     P = 0.5 * (P + np.transpose(P, (0, 2, 1)))
@@ -81,8 +106,10 @@ def bridge_gaps(t: np.ndarray, x: np.ndarray, P: np.ndarray, q: np.ndarray, rate
             k0, k1 = int(round(ta * rate_hz)) + 1, int(round(tb * rate_hz)) - 1
             tt = np.arange(k0, k1 + 1, dtype=float) / rate_hz
             if tt.size:
+                ends = [g, g + 1]
+                qm = float(manoeuvre_psd(x[ends, 3:6], P[ends, 3:6, 3:6]).max())
                 xs, Ps = _fit(tt, ta, x[g], P[g], tb, x[g + 1], P[g + 1],
-                              float(max(q[g], q[g + 1])))
+                              float(max(q[g], q[g + 1])), qm)
                 parts_t.append(tt)
                 parts_x.append(xs)
                 parts_P.append(Ps)

@@ -164,3 +164,27 @@ def cv_predict(x: np.ndarray, P: np.ndarray, dt: np.ndarray, q: float | np.ndarr
         Q[..., k, k + 3] = Q[..., k + 3, k] = q01
         Q[..., k + 3, k + 3] = q11
     return np.einsum("...ij,...j->...i", F, x), F @ P @ np.swapaxes(F, -1, -2) + Q
+
+
+#: White-acceleration PSD ((m/s^2)^2/s) of the IMM's manoeuvre model: a 6 g turn begun between
+#: two plots 4 s apart moves the object 480 m off its line, inside the gate of this model's
+#: prediction (sqrt(q dt^3 / 3) = 160 m a component, gate 4.6 sigma), where a 3 g model loses
+#: fighters turning between surveillance scans.
+MANOEUVRE_PSD = 1200.0
+#: The manoeuvre model's PSD scales with the square of the track's speed (``manoeuvre_psd``):
+#: ``MANOEUVRE_PSD`` from this speed (m/s) on (a 6 g turn at 250 m/s is 13.5 deg/s), down to
+#: ``MANOEUVRE_FLOOR`` at rest (a 1 m/s^2 manoeuvre over a few seconds).
+MANOEUVRE_SPEED = 250.0
+MANOEUVRE_FLOOR = 4.0
+def manoeuvre_psd(v: np.ndarray, Pv: np.ndarray) -> np.ndarray:
+    """(K,) white-acceleration PSD ((m/s^2)^2/s) of the IMM's manoeuvre model for tracks of
+    velocity v (K, 3) m/s with covariance Pv (K, 3, 3): a manoeuvre is a turn, whose
+    acceleration is the speed times the turn rate, so the PSD scales with the square of the
+    speed (taken at its upper bound, |v| + 3 sigma): ``MANOEUVRE_PSD`` (a 6 g turn) at
+    ``MANOEUVRE_SPEED`` and above, down to ``MANOEUVRE_FLOOR`` for an object at rest. A boat
+    at 4 m/s turns at most a few tenths of a g; a model that lets it leap a fighter's 480 m
+    between two scans takes the sea clutter of every missed scan into its track."""
+    sigma_v = np.sqrt(np.maximum(np.einsum("kii->k", Pv) / 3.0, 0.0))
+    speed = np.linalg.norm(v, axis=-1) + 3.0 * sigma_v
+    return np.clip(MANOEUVRE_PSD * (speed / MANOEUVRE_SPEED) ** 2, MANOEUVRE_FLOOR,
+                   MANOEUVRE_PSD)

@@ -17,11 +17,11 @@ plots, their positions), in the range ENU frame.
     with Markov switching of mean sojourn ``MODEL_SOJOURN``: a boat or an airliner in cruise
     is predicted as tightly as its plots allow, a turning fighter keeps its track. A
     manoeuvre is a turn, whose acceleration is the speed times the turn rate: the manoeuvre
-    model's PSD (:func:`manoeuvre_psd`) is ``MANOEUVRE_PSD`` (a 6 g turn begun between two
-    scans stays inside the gate) from ``MANOEUVRE_SPEED`` on and falls with the square of the
-    track's speed (its upper bound) to ``MANOEUVRE_FLOOR``: a boat at 4 m/s is not given a
-    fighter's 480 m between two scans, which took sea clutter into its track at every missed
-    scan and split it.
+    model's PSD (``models.motion.manoeuvre_psd``) is ``MANOEUVRE_PSD`` (a 6 g turn begun
+    between two scans stays inside the gate) from ``MANOEUVRE_SPEED`` on and falls with the
+    square of the track's speed (its upper bound) to ``MANOEUVRE_FLOOR``: a boat at 4 m/s is
+    not given a fighter's 480 m between two scans, which took sea clutter into its track at
+    every missed scan and split it.
   - *Clutter* (``tracking.clutter_map``): a spatial clutter map estimated from the sensor's
     own plots: the plots per scan in cells of ``CLUTTER_CELL_SIGMAS`` median plot sigmas
     (east, north and, for a radar that measures elevation, up), each plot's own cell
@@ -90,7 +90,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from rangeproc.estimation.imm_models import mix_moments, uniform_switch_matrix
-from rangeproc.models.motion import cv_predict
+from rangeproc.models.motion import MANOEUVRE_PSD, cv_predict, manoeuvre_psd
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.clutter_map import (clutter_density, neighbour_share,
                                             on_stationary_returns)
@@ -117,16 +117,6 @@ from rangeproc.tracking.plots import (
 #: and speed against small disturbances (a boat, an airliner in level flight; the value
 #: Stone Soup's tutorials use for such targets).
 CRUISE_PSD = 1.0
-#: White-acceleration PSD ((m/s^2)^2/s) of the IMM's manoeuvre model: a 6 g turn begun between
-#: two plots 4 s apart moves the object 480 m off its line, inside the gate of this model's
-#: prediction (sqrt(q dt^3 / 3) = 160 m a component, gate 4.6 sigma), where a 3 g model loses
-#: fighters turning between surveillance scans.
-MANOEUVRE_PSD = 1200.0
-#: The manoeuvre model's PSD scales with the square of the track's speed (``manoeuvre_psd``):
-#: ``MANOEUVRE_PSD`` from this speed (m/s) on (a 6 g turn at 250 m/s is 13.5 deg/s), down to
-#: ``MANOEUVRE_FLOOR`` at rest (a 1 m/s^2 manoeuvre over a few seconds).
-MANOEUVRE_SPEED = 250.0
-MANOEUVRE_FLOOR = 4.0
 MODEL_PSD = (CRUISE_PSD, MANOEUVRE_PSD)
 #: Mean time (s) an object stays in one motion model (the IMM's Markov switching).
 MODEL_SOJOURN = 10.0
@@ -274,20 +264,6 @@ def _imm_predict(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, dt: np.ndarray
             q = manoeuvre_psd(x0[:, m, 3:], P0[:, m, 3:, 3:])
         xp[:, m], Pp[:, m] = cv_predict(x0[:, m], P0[:, m], dt, q)
     return c, xp, Pp
-
-
-def manoeuvre_psd(v: np.ndarray, Pv: np.ndarray) -> np.ndarray:
-    """(K,) white-acceleration PSD ((m/s^2)^2/s) of the IMM's manoeuvre model for tracks of
-    velocity v (K, 3) m/s with covariance Pv (K, 3, 3): a manoeuvre is a turn, whose
-    acceleration is the speed times the turn rate, so the PSD scales with the square of the
-    speed (taken at its upper bound, |v| + 3 sigma): ``MANOEUVRE_PSD`` (a 6 g turn) at
-    ``MANOEUVRE_SPEED`` and above, down to ``MANOEUVRE_FLOOR`` for an object at rest. A boat
-    at 4 m/s turns at most a few tenths of a g; a model that lets it leap a fighter's 480 m
-    between two scans takes the sea clutter of every missed scan into its track."""
-    sigma_v = np.sqrt(np.maximum(np.einsum("kii->k", Pv) / 3.0, 0.0))
-    speed = np.linalg.norm(v, axis=-1) + 3.0 * sigma_v
-    return np.clip(MANOEUVRE_PSD * (speed / MANOEUVRE_SPEED) ** 2, MANOEUVRE_FLOOR,
-                   MANOEUVRE_PSD)
 
 
 def _candidate_pairs(xs: np.ndarray, Ps: np.ndarray, mu: np.ndarray, t_track: np.ndarray,

@@ -1,10 +1,12 @@
-"""Bridging a gap between spans equals the RTS smoother with data only at the two ends."""
+"""Bridging a gap between spans equals the RTS smoother with data only at the two ends, its
+process noise the ends' white jerk plus the manoeuvre the ends' speed allows."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rangeproc.fusion.bridge import bridge_gaps, ca_noise, ca_transition
+from rangeproc.fusion.bridge import bridge_gaps, ca_noise, ca_transition, manoeuvre_noise
+from rangeproc.models.motion import MANOEUVRE_FLOOR, MANOEUVRE_PSD, manoeuvre_psd
 
 filterpy = pytest.importorskip("filterpy")
 from filterpy.kalman import KalmanFilter  # noqa: E402
@@ -32,6 +34,9 @@ def test_the_fit_equals_filterpy_rts_with_the_ends_as_measurements() -> None:
     assert np.allclose(tt[inside], np.arange(1001, 1300) / rate)
     # oracle: FilterPy KF from (xa, Pa) over the gap, (xb, Pb) as a full-state measurement at
     # tb, then its RTS smoother
+    qm = float(manoeuvre_psd(np.array([xa[3:6], xb[3:6]]),
+                             np.array([Pa[3:6, 3:6], Pb[3:6, 3:6]])).max())
+    assert MANOEUVRE_FLOOR < qm < MANOEUVRE_PSD
     kf = KalmanFilter(dim_x=9, dim_z=9)
     kf.x, kf.P, kf.H, kf.R = xa.copy(), Pa.copy(), np.eye(9), Pb.copy()
     steps = np.arange(1001, 1301) / rate
@@ -39,7 +44,8 @@ def test_the_fit_equals_filterpy_rts_with_the_ends_as_measurements() -> None:
     prev = ta
     for ti in steps:
         kf.F = ca_transition(np.array([ti - prev]))[0]
-        kf.Q = ca_noise(np.array([ti - prev]), q)[0]
+        kf.Q = ca_noise(np.array([ti - prev]), q)[0] + manoeuvre_noise(np.array([ti - prev]),
+                                                                         qm)[0]
         kf.predict()
         if np.isclose(ti, tb):
             kf.update(xb)
@@ -62,3 +68,27 @@ def test_gaps_longer_than_the_limit_stay_empty() -> None:
     P = np.tile(np.eye(9), (t.size, 1, 1))
     tt, _, _, filled = bridge_gaps(t, x, P, np.ones(t.size), 10.0, max_seconds=100.0)
     assert tt.size == t.size and not filled.any()
+
+
+@pytest.mark.parametrize("speed, psd", [(300.0, MANOEUVRE_PSD), (0.5, MANOEUVRE_FLOOR)])
+def test_an_unseen_manoeuvre_widens_the_bridge_by_its_speed(speed: float, psd: float) -> None:
+    """Ends known exactly (no jerk noise): the middle of a gap of T s has the variance of an
+    integrated Wiener process pinned in position and velocity at both ends,
+    ``q T^3 / 192`` per axis (the posterior variance of the cubic smoothing spline's prior,
+    Wahba 1978), with q the manoeuvre PSD of the ends' speed: a fighter's bridge is hundreds
+    of metres wide, a drifting boat's a few metres."""
+    T, rate = 30.0, 10.0
+    t = np.r_[np.arange(0.0, 1.0, 0.1), np.arange(T + 0.9, T + 2.0, 0.1)]
+    v = np.r_[speed, 0.0, 0.0]
+    x = np.zeros((t.size, 9))
+    x[:, 0], x[:, 3] = speed * t, speed
+    P = np.tile(np.eye(9) * 1e-12, (t.size, 1, 1))
+    tt, xx, PP, filled = bridge_gaps(t, x, P, np.zeros(t.size), rate, max_seconds=60.0)
+    mid = np.flatnonzero(filled)[np.argmin(np.abs(tt[filled] - (0.9 + T / 2 + 0.45)))]
+    ta, tb = 0.9, T + 0.9
+    gap = tb - ta
+    u = (tt[mid] - ta) / gap
+    expected = psd * gap ** 3 * u ** 3 * (1 - u) ** 3 / 3.0
+    assert manoeuvre_psd(v[None], np.zeros((1, 3, 3)))[0] == psd
+    np.testing.assert_allclose(PP[mid, [0, 1, 2], [0, 1, 2]], expected, rtol=1e-6)
+    np.testing.assert_allclose(xx[mid, 0], speed * tt[mid], rtol=1e-9)

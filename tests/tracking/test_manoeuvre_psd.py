@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import rangeproc.models.motion as motion
 import rangeproc.tracking.plot_tracker as pt
 
 SCAN_S = 2.5          # a scanning radar's period (s)
@@ -45,9 +46,9 @@ def _boat_tracks(seed: int) -> tuple[int, float]:
 def test_manoeuvre_psd_scales_with_speed():
     v = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [300.0, 0.0, 0.0]])
     q = pt.manoeuvre_psd(v, np.zeros((3, 3, 3)))
-    assert q[0] == pt.MANOEUVRE_FLOOR and q[2] == pt.MANOEUVRE_PSD
-    assert q[1] == pytest.approx(max(pt.MANOEUVRE_FLOOR,
-                                     pt.MANOEUVRE_PSD * (4.0 / pt.MANOEUVRE_SPEED) ** 2))
+    assert q[0] == motion.MANOEUVRE_FLOOR and q[2] == pt.MANOEUVRE_PSD
+    assert q[1] == pytest.approx(max(motion.MANOEUVRE_FLOOR,
+                                     pt.MANOEUVRE_PSD * (4.0 / motion.MANOEUVRE_SPEED) ** 2))
     # an unknown velocity (a new track) is given the full model
     assert pt.manoeuvre_psd(v[:1], np.eye(3)[None] * 1e6)[0] == pt.MANOEUVRE_PSD
 
