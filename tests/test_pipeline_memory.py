@@ -3,6 +3,9 @@ fusion results are released before the report draws, and every stage starts by h
 C heap's free pages back (``io.memory``, ``pipeline``)."""
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import threading
 import weakref
 from pathlib import Path
 
@@ -111,3 +114,36 @@ def _rss() -> int:
         pytest.skip("no /proc")
     return int(next(line for line in text.splitlines() if line.startswith("VmRSS:")).split()[1]
                ) * 1024
+
+
+
+def test_worker_threads_allocate_from_the_main_heap(tmp_path: Path) -> None:
+    """``import rangeproc`` puts every thread on the C library's main heap
+    (``io.memory.one_heap``), whose freed pages ``release_freed`` hands back: a worker thread
+    that allocates makes no heap of its own (glibc's ``malloc_info`` lists the heaps)."""
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+    if not hasattr(libc, "malloc_info") or not release_freed():
+        pytest.skip("not glibc")
+    libc.fopen.restype = ctypes.c_void_p
+    libc.fopen.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    libc.malloc_info.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    libc.fclose.argtypes = [ctypes.c_void_p]
+
+    def heaps() -> int:
+        out = tmp_path / "heaps.xml"
+        f = libc.fopen(str(out).encode(), b"w")
+        libc.malloc_info(0, f)
+        libc.fclose(f)
+        return out.read_text().count("<heap nr=")
+
+    def churn() -> None:               # 80 kB arrays: heap blocks, not mmapped ones
+        made = [np.ones(10_000) for _ in range(100)]
+        assert len(made) == 100
+
+    before = heaps()
+    workers = [threading.Thread(target=churn) for _ in range(4)]
+    for w in workers:                  # side by side, as rangeproc.parallel runs them
+        w.start()
+    for w in workers:
+        w.join()
+    assert heaps() == before == 1
