@@ -360,6 +360,8 @@ def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
     release_freed()         # the set-up's temporaries' pages, before the (N, 6) weights
     weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
     for it in range(IRLS_PASSES):
+        if it:
+            release_freed()     # the re-weighting's temporaries' pages, before the solve's
         Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*pr.args, batch.z, weight, *pr.geo, p,
                                                     residuals=False)
         if it == IRLS_PASSES - 1:
