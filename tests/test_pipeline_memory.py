@@ -15,7 +15,12 @@ import pytest
 
 import rangeproc.pipeline as pipeline
 from rangeproc.config import load_config
-from rangeproc.io.memory import release_freed, system_arrow_pool
+from rangeproc.io.memory import (
+    BETWEEN_STEPS_ROWS,
+    release_freed,
+    release_freed_between,
+    system_arrow_pool,
+)
 from rangeproc.progress import SilentDisplay, StageClock
 from rangeproc.stages.read import read_all
 
@@ -147,3 +152,21 @@ def test_worker_threads_allocate_from_the_main_heap(tmp_path: Path) -> None:
     for w in workers:
         w.join()
     assert heaps() == before == 1
+
+
+def test_steps_hand_pages_back_between_them_on_long_spans_only(monkeypatch) -> None:
+    # a short span's or object's steps free too little for the trim's refaults to pay
+    import rangeproc.io.memory as memory
+    if not release_freed():
+        pytest.skip("no malloc_trim in this C library")
+    trims = [0]
+
+    def counted() -> bool:
+        trims[0] += 1
+        return True
+
+    monkeypatch.setattr(memory, "release_freed", counted)
+    assert not release_freed_between(BETWEEN_STEPS_ROWS - 1)
+    assert trims[0] == 0
+    assert release_freed_between(BETWEEN_STEPS_ROWS)
+    assert trims[0] == 1

@@ -27,7 +27,7 @@ from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
-from rangeproc.io.memory import release_freed
+from rangeproc.io.memory import release_freed_between
 from rangeproc.models.motion import N_KINEMATIC
 
 #: Most rows the achievable-accuracy pass runs on (the rest: thinned, module docstring).
@@ -86,7 +86,7 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
                       col(b.model), col(b.z), np.ascontiguousarray(sigma), col(b.s),
                       col(b.sv), col(b.Qr), col(b.sensor))
     del sigma
-    release_freed()                     # what the thinning let go, before the filter's arrays
+    release_freed_between(len(b))       # what the thinning let go, before the filter's arrays
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
     fwd = run_filter(rows, prior, FilterSettings(np.full(7, np.inf)))

@@ -8,7 +8,7 @@ from rangeproc.fusion.achievable import achievable_sigma
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.frames.geodesy import RangeFrame
-from rangeproc.io.memory import release_freed
+from rangeproc.io.memory import release_freed_between
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.support import left_out, supported
 from rangeproc.models.measurement import COMPONENTS
@@ -123,7 +123,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     # the achievable pass first: its forward history (an (E, 45) covariance per epoch) is let
     # go before the grid's covariances are unpacked, so the two are never resident together
     on_grid = achievable_sigma(result)
-    release_freed()     # and its freed pages handed back before the grid's arrays are made
+    release_freed_between(len(result.batch))   # and its freed pages before the grid's arrays
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]

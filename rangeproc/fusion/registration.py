@@ -48,7 +48,7 @@ from rangeproc.estimation.registration import (
 from rangeproc.estimation.consider import consider_covariance
 from rangeproc.fusion.assemble import deck_turn
 from rangeproc.fusion.batch import MeasurementBatch
-from rangeproc.io.memory import release_freed
+from rangeproc.io.memory import release_freed_between
 from rangeproc.models.measurement import SPHERICAL
 
 log = logging.getLogger(__name__)
@@ -357,11 +357,11 @@ def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
     """
     pr, p = problem, len(terms)
     groups = [np.flatnonzero(batch.sensor == i) for i in np.unique(batch.sensor)]
-    release_freed()         # the set-up's temporaries' pages, before the (N, 6) weights
+    release_freed_between(len(batch))   # the set-up's freed pages, before the weights
     weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
     for it in range(IRLS_PASSES):
         if it:
-            release_freed()     # the re-weighting's temporaries' pages, before the solve's
+            release_freed_between(len(batch))   # the re-weighting's, before the solve's
         Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*pr.args, batch.z, weight, *pr.geo, p,
                                                     residuals=False)
         if it == IRLS_PASSES - 1:

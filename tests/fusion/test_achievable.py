@@ -81,7 +81,7 @@ def test_the_filter_gets_only_the_columns_it_reads(tmp_path, monkeypatch, max_ro
     monkeypatch.setattr(ach, "MAX_ROWS", max_rows)
     calls: list[tuple] = []
     trims = [0]
-    achievable, filt, freed = products.achievable_sigma, ach.run_filter, ach.release_freed
+    achievable, filt, freed = products.achievable_sigma, ach.run_filter, ach.release_freed_between
 
     def watched(result):
         calls.append((result.batch, []))
@@ -91,13 +91,13 @@ def test_the_filter_gets_only_the_columns_it_reads(tmp_path, monkeypatch, max_ro
         calls[-1][1].append((rows, trims[0]))
         return filt(rows, *args)
 
-    def counted() -> bool:
+    def counted(n_rows: int) -> bool:
         trims[0] += 1
-        return freed()
+        return freed(n_rows)
 
     monkeypatch.setattr(products, "achievable_sigma", watched)
     monkeypatch.setattr(ach, "run_filter", watched_filter)
-    monkeypatch.setattr(ach, "release_freed", counted)
+    monkeypatch.setattr(ach, "release_freed_between", counted)
     assert run(cfg).tracks
     (batch, [(rows, trimmed)]), = calls
     assert trimmed == 1
