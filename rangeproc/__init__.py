@@ -23,8 +23,8 @@ The docstrings cite the published methods rangeproc implements by author and yea
 __version__ = "0.1.0"
 
 # Before pyarrow (or anything else) starts a thread: every thread allocates from the C
-# library's main heap, whose freed pages the stages hand back (rangeproc.io.memory).
-from rangeproc.io.memory import one_heap as _one_heap  # noqa: E402
+# library's main heap, whose freed pages the stages hand back (rangeproc.parallel).
+from rangeproc.parallel import one_heap as _one_heap  # noqa: E402
 
 _one_heap()
 

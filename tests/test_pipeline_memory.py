@@ -124,7 +124,7 @@ def _rss() -> int:
 
 def test_worker_threads_allocate_from_the_main_heap(tmp_path: Path) -> None:
     """``import rangeproc`` puts every thread on the C library's main heap
-    (``io.memory.one_heap``), whose freed pages ``release_freed`` hands back: a worker thread
+    (``parallel.one_heap``), whose freed pages ``release_freed`` hands back: a worker thread
     that allocates makes no heap of its own (glibc's ``malloc_info`` lists the heaps)."""
     libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
     if not hasattr(libc, "malloc_info") or not release_freed():

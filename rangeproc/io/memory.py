@@ -10,50 +10,22 @@ where the C library has none). Arrow's own ``release_unused`` of its system pool
 (pyarrow 26: the resident set of a fragmented heap stays as it is).
 
 Threads (``rangeproc.parallel``: the row chunks, the process-noise candidates, objects side by
-side) would each get a heap of their own from glibc (up to 8 per core), and what a worker
-thread frees at the top of its heap stays resident: ``malloc_trim`` gives back only the main
-heap's top, and glibc trims a thread's heap only past a threshold that grows with the
-largest array freed (tens of MiB). :func:`one_heap` makes every thread allocate from the main
-heap (``mallopt(M_ARENA_MAX, 1)``), so :func:`release_freed` reaches all freed memory.
+side) allocate from the main heap too (``rangeproc.parallel.one_heap``, at
+``import rangeproc``): on heaps of their own (glibc's default, up to 8 per core) what they
+freed stayed resident between the trims.
 
 None of these changes a value: they decide only where freed bytes wait.
 """
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 
-#: glibc's ``mallopt`` parameter: the most heaps (arenas) the threads allocate from.
-M_ARENA_MAX = -8
+import pyarrow as pa
 
+from rangeproc.parallel import libc_function
 
-def _libc(function: str) -> Callable[..., int] | None:
-    """glibc's ``function`` (``malloc_trim``, ``mallopt``), or None (another C library, or
-    none found)."""
-    name = ctypes.util.find_library("c")
-    try:
-        return getattr(ctypes.CDLL(name), function, None) if name else None
-    except OSError:
-        return None
-
-
-_TRIM = _libc("malloc_trim")
-_MALLOPT = _libc("mallopt")
-
-
-def one_heap() -> bool:
-    """Let every thread allocate from the C library's main heap (glibc
-    ``mallopt(M_ARENA_MAX, 1)``), whose free pages :func:`release_freed` hands back in
-    full: a worker thread's heap keeps what it freed at its top resident (glibc trims it only
-    past a threshold that grows with the largest array freed, up to 64 MiB). Threads that
-    already hold a heap of their own keep it. The threads share the heap's lock: the kernels
-    write into arrays made before they start, so they seldom take it. False where there is no
-    ``mallopt`` (nothing done)."""
-    if _MALLOPT is None:
-        return False
-    return bool(_MALLOPT(M_ARENA_MAX, 1))
+_TRIM = libc_function("malloc_trim")
 
 
 def release_freed() -> bool:
@@ -69,9 +41,10 @@ def release_freed() -> bool:
 
 #: Rows of a span or object from which its steps also hand the free pages back between them
 #: (:func:`release_freed_between`). A step of a 298,000-row span frees tens of MiB that the
-#: next one would otherwise lay its arrays over (the peak of that span, 32 MiB lower with
-#: them); an object of the several-objects scenario (about 30,000 rows) frees a few, and the
-#: trims cost it 30 % more system time (pages faulted in again) for no lower peak.
+#: next one would otherwise lay its arrays over (its final pass's peak 593 -> 537 MiB with the
+#: trim before it, one run); an object of the several-objects scenario (about 30,000 rows)
+#: frees a few, and the trims cost it 30 % more system time (pages faulted in again) for no
+#: lower peak.
 BETWEEN_STEPS_ROWS = 100_000
 
 
@@ -88,8 +61,6 @@ def system_arrow_pool() -> Iterator[None]:
     (:func:`release_freed`). Arrays made within keep their buffers' pool; nothing is
     copied. The default pool is the process's: Arrow work in another thread meanwhile
     allocates from the system pool too (its values are the same)."""
-    import pyarrow as pa        # here: io.memory is imported with rangeproc, before pyarrow
-
     before = pa.default_memory_pool()
     pa.set_memory_pool(pa.system_memory_pool())
     try:
