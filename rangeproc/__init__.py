@@ -22,6 +22,12 @@ The docstrings cite the published methods rangeproc implements by author and yea
 
 __version__ = "0.1.0"
 
+# Before pyarrow (or anything else) starts a thread: every thread allocates from the C
+# library's main heap, whose freed pages the stages hand back (rangeproc.parallel).
+from rangeproc.parallel import one_heap as _one_heap  # noqa: E402
+
+_one_heap()
+
 # Before any kernel module is imported: numba's cache goes to a folder keyed to the kernels'
 # sources (rangeproc.kernel_cache), so an edited helper never loads a stale kernel.
 from rangeproc.kernel_cache import configure as _configure_kernel_cache  # noqa: E402

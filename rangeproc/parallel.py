@@ -8,9 +8,13 @@
   with :func:`thread_map`.
 * :func:`shared_with_child`: this process and one forked child, for work that holds the GIL
   (the report's matplotlib figures).
+* :func:`one_heap`: every thread allocates from the C library's main heap (run at
+  ``import rangeproc``), whose freed pages ``io.memory.release_freed`` hands back.
 """
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import multiprocessing
 import os
@@ -24,6 +28,32 @@ import numpy as np
 
 T = TypeVar("T")
 R = TypeVar("R")
+
+
+#: glibc's ``mallopt`` parameter: the most heaps (arenas) the threads allocate from.
+M_ARENA_MAX = -8
+
+
+def libc_function(function: str) -> Callable[..., int] | None:
+    """glibc's ``function`` (``malloc_trim``, ``mallopt``), or None (another C library, or
+    none found)."""
+    name = ctypes.util.find_library("c")
+    try:
+        return getattr(ctypes.CDLL(name), function, None) if name else None
+    except OSError:
+        return None
+
+
+def one_heap() -> bool:
+    """Let every thread allocate from the C library's main heap (glibc
+    ``mallopt(M_ARENA_MAX, 1)``), whose free pages ``io.memory.release_freed`` hands back in
+    full: glibc gives each thread a heap of its own (up to 8 per core), where what a worker
+    thread freed stays resident between the trims. Threads that already hold a heap of their
+    own keep it (run it before any thread allocates: ``import rangeproc`` does). The threads
+    share the heap's lock: the kernels write into arrays made before they start, so they
+    seldom take it. False where there is no ``mallopt`` (nothing done)."""
+    mallopt = libc_function("mallopt")
+    return bool(mallopt(M_ARENA_MAX, 1)) if mallopt is not None else False
 
 
 #: Environment variable: the most cores one run may use, when several runs share a machine

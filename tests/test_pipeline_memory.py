@@ -3,6 +3,9 @@ fusion results are released before the report draws, and every stage starts by h
 C heap's free pages back (``io.memory``, ``pipeline``)."""
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import threading
 import weakref
 from pathlib import Path
 
@@ -12,7 +15,12 @@ import pytest
 
 import rangeproc.pipeline as pipeline
 from rangeproc.config import load_config
-from rangeproc.io.memory import release_freed, system_arrow_pool
+from rangeproc.io.memory import (
+    BETWEEN_STEPS_ROWS,
+    release_freed,
+    release_freed_between,
+    system_arrow_pool,
+)
 from rangeproc.progress import SilentDisplay, StageClock
 from rangeproc.stages.read import read_all
 
@@ -111,3 +119,54 @@ def _rss() -> int:
         pytest.skip("no /proc")
     return int(next(line for line in text.splitlines() if line.startswith("VmRSS:")).split()[1]
                ) * 1024
+
+
+
+def test_worker_threads_allocate_from_the_main_heap(tmp_path: Path) -> None:
+    """``import rangeproc`` puts every thread on the C library's main heap
+    (``parallel.one_heap``), whose freed pages ``release_freed`` hands back: a worker thread
+    that allocates makes no heap of its own (glibc's ``malloc_info`` lists the heaps)."""
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+    if not hasattr(libc, "malloc_info") or not release_freed():
+        pytest.skip("not glibc")
+    libc.fopen.restype = ctypes.c_void_p
+    libc.fopen.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    libc.malloc_info.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    libc.fclose.argtypes = [ctypes.c_void_p]
+
+    def heaps() -> int:
+        out = tmp_path / "heaps.xml"
+        f = libc.fopen(str(out).encode(), b"w")
+        libc.malloc_info(0, f)
+        libc.fclose(f)
+        return out.read_text().count("<heap nr=")
+
+    def churn() -> None:               # 80 kB arrays: heap blocks, not mmapped ones
+        made = [np.ones(10_000) for _ in range(100)]
+        assert len(made) == 100
+
+    before = heaps()
+    workers = [threading.Thread(target=churn) for _ in range(4)]
+    for w in workers:                  # side by side, as rangeproc.parallel runs them
+        w.start()
+    for w in workers:
+        w.join()
+    assert heaps() == before == 1
+
+
+def test_steps_hand_pages_back_between_them_on_long_spans_only(monkeypatch) -> None:
+    # a short span's or object's steps free too little for the trim's refaults to pay
+    import rangeproc.io.memory as memory
+    if not release_freed():
+        pytest.skip("no malloc_trim in this C library")
+    trims = [0]
+
+    def counted() -> bool:
+        trims[0] += 1
+        return True
+
+    monkeypatch.setattr(memory, "release_freed", counted)
+    assert not release_freed_between(BETWEEN_STEPS_ROWS - 1)
+    assert trims[0] == 0
+    assert release_freed_between(BETWEEN_STEPS_ROWS)
+    assert trims[0] == 1

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rangeproc.estimation.forward import FilterPrior, FilterSettings, run_filter
+from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
 from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
+from rangeproc.io.memory import release_freed_between
 from rangeproc.models.motion import N_KINEMATIC
 
 #: Most rows the achievable-accuracy pass runs on (the rest: thinned, module docstring).
@@ -76,10 +77,16 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     if len(b) == 0:
         return np.full((int(result.grid.sum()), 3), np.nan)
     idx, sigma = _thinned(result, _row_sigma(result))
-    kept = b if len(idx) == len(b) else b.rows(idx)     # every row: no row copies
-    rows = kept.with_sigma(np.ascontiguousarray(sigma)).filter_rows(
-        result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]))
+    every = len(idx) == len(b)          # every row: the batch's own columns, no row copies
+
+    def col(a: np.ndarray) -> np.ndarray:         # only the columns the filter reads
+        return a if every else a[idx]
+
+    rows = FilterRows(result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]),
+                      col(b.model), col(b.z), np.ascontiguousarray(sigma), col(b.s),
+                      col(b.sv), col(b.Qr), col(b.sensor))
     del sigma
+    release_freed_between(len(b))       # what the thinning let go, before the filter's arrays
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
     prior = FilterPrior(x_lin[0].copy(), np.diag(P0_DIAG), result.q, x_lin)
     fwd = run_filter(rows, prior, FilterSettings(np.full(7, np.inf)))

@@ -8,6 +8,7 @@ from rangeproc.fusion.achievable import achievable_sigma
 from rangeproc.fusion.bridge import bridge_gaps
 from rangeproc.fusion.extent import Extent, extent_covariance, held_heading, lever_offset
 from rangeproc.frames.geodesy import RangeFrame
+from rangeproc.io.memory import release_freed_between
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.support import left_out, supported
 from rangeproc.models.measurement import COMPONENTS
@@ -122,6 +123,7 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     # the achievable pass first: its forward history (an (E, 45) covariance per epoch) is let
     # go before the grid's covariances are unpacked, so the two are never resident together
     on_grid = achievable_sigma(result)
+    release_freed_between(len(result.batch))   # and its freed pages before the grid's arrays
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -130,14 +132,14 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     if max_bridge > 0.0 and len(result.spans) > 1:
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
     if reference.along > 0.0 or reference.across > 0.0:  # where the reference point can be
-        P = P.copy()
-        P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])
+        P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])    # (P: unpacked here)
     achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
     achievable[~filled] = on_grid
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
     unwritten = left_out(t, keep)
-    t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
+    if not keep.all():                                  # (every epoch kept: no copies)
+        t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
     if lever_arm is not None:                           # the user's point on the object
         x = x.copy()
         x[:, :3] += lever_offset(held_heading(x[:, 3:5]), lever_arm)

@@ -37,6 +37,7 @@ from rangeproc.fusion.registration import (
     row_shift,
 )
 from rangeproc.fusion.thinning import Expanded, PassRows, carry_to_every_row
+from rangeproc.io.memory import release_freed_between
 
 log = logging.getLogger(__name__)
 
@@ -209,6 +210,8 @@ def _next_pass(st: Refinement, inp: PassInputs, k: int, rho: float | None,
     st.redo = partial(run_pass, st.batch, st.rows.epoch_t, st.rows.meas_epoch, *inp.start,
                       st.q, inp.gate, inp.settings, st.out.xs, rho or 0.0)
     st.expanded = st.out = None
+    # its pages, and those the registration and the noise estimate freed, handed back
+    release_freed_between(len(st.batch))
     try:
         st.out = st.redo()
         failed = ""

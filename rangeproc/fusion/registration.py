@@ -48,6 +48,7 @@ from rangeproc.estimation.registration import (
 from rangeproc.estimation.consider import consider_covariance
 from rangeproc.fusion.assemble import deck_turn
 from rangeproc.fusion.batch import MeasurementBatch
+from rangeproc.io.memory import release_freed_between
 from rangeproc.models.measurement import SPHERICAL
 
 log = logging.getLogger(__name__)
@@ -356,12 +357,17 @@ def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
     """
     pr, p = problem, len(terms)
     groups = [np.flatnonzero(batch.sensor == i) for i in np.unique(batch.sensor)]
+    release_freed_between(len(batch))   # the set-up's freed pages, before the weights
     weight = _weights(groups, res, batch.sigma, True)   # stated sigmas, wild points out
-    rate = None
     for it in range(IRLS_PASSES):
+        if it:
+            release_freed_between(len(batch))   # the re-weighting's, before the solve's
         Nxx, Nxc, Ncc, bx, bc, _ = normal_equations(*pr.args, batch.z, weight, *pr.geo, p,
                                                     residuals=False)
+        if it == IRLS_PASSES - 1:
+            weight = None               # the last solve's (N, 6) weights are not read again
         S, s, Xc, xb = solve_joint(Nxx + pr.diag, pr.upper, Nxc, Ncc, bx + pr.rhs, bc)
+        del Nxx, Nxc, Ncc, bx, bc
         dc = np.zeros(p)
         reason = _select(S, pr.s_prior, terms, batch.sensor_ids, n_rows)
         act = [k for k in range(p) if reason[k] == ""]
@@ -371,13 +377,14 @@ def _irls(batch: MeasurementBatch, res: np.ndarray, terms: tuple[Term, ...],
             cov[np.ix_(act, act)] = np.linalg.inv(info)
             dc[act] = cov[np.ix_(act, act)] @ s[act]
         if it < IRLS_PASSES - 1:        # re-weight from the post-fit residuals (the last
-            weight = rate = None        # weights and rates let go first: (N, 6) and (N, 4))
-            post, rate = postfit(*pr.args, *pr.geo, res, xb - Xc @ dc, dc)
+            weight = None               # weights let go first: (N, 6))
+            post, _ = postfit(*pr.args, *pr.geo, res, xb - Xc @ dc, dc)
             weight = _weights(groups, post, batch.sigma, False)
             del post
-    if rate is None:
-        _, rate = postfit(*pr.args, *pr.geo, res, np.zeros((len(pr.args[2]), N_NODE)),
-                          np.zeros(p))
+    # the rows' rates (N, 4) after the solves, not held through them: they depend on the
+    # track only (the design's latency column), not on the solution
+    _, rate = postfit(*pr.args, *pr.geo, res, np.zeros((len(pr.args[2]), N_NODE)),
+                      np.zeros(p))
     return S, s, Xc, dc, cov, reason, rate
 
 

@@ -70,3 +70,42 @@ def test_the_pass_history_is_let_go_before_the_grid_covariances(tmp_path, monkey
     assert run(cfg).tracks
     assert seen and all(n >= 1 for n, _ in seen)        # the pass ran first ...
     assert [alive for _, alive in seen] == [0] * len(seen)   # ... and was let go
+
+
+@pytest.mark.parametrize("max_rows", [ach.MAX_ROWS, 600])
+def test_the_filter_gets_only_the_columns_it_reads(tmp_path, monkeypatch, max_rows):
+    # every row: the batch's own columns; thinned: copies of the kept rows of the columns the
+    # filter reads (no copy of the batch's sigma, times or bookkeeping), and the pages the
+    # thinning freed handed back before the filter makes its arrays
+    cfg = simulate_scenario(tmp_path, seed=2, duration=120.0, sensors="R1,G1")
+    monkeypatch.setattr(ach, "MAX_ROWS", max_rows)
+    calls: list[tuple] = []
+    trims = [0]
+    achievable, filt, freed = products.achievable_sigma, ach.run_filter, ach.release_freed_between
+
+    def watched(result):
+        calls.append((result.batch, []))
+        return achievable(result)
+
+    def watched_filter(rows, *args):
+        calls[-1][1].append((rows, trims[0]))
+        return filt(rows, *args)
+
+    def counted(n_rows: int) -> bool:
+        trims[0] += 1
+        return freed(n_rows)
+
+    monkeypatch.setattr(products, "achievable_sigma", watched)
+    monkeypatch.setattr(ach, "run_filter", watched_filter)
+    monkeypatch.setattr(ach, "release_freed_between", counted)
+    assert run(cfg).tracks
+    (batch, [(rows, trimmed)]), = calls
+    assert trimmed == 1
+    shared = [rows.model is batch.model, rows.z is batch.z, rows.s is batch.s,
+              rows.Qr is batch.Qr, rows.sensor is batch.sensor]
+    if max_rows >= len(batch):
+        assert all(shared)
+    else:
+        assert not any(shared) and len(rows.z) < len(batch)
+        assert {len(a) for a in (rows.model, rows.z, rows.sigma, rows.sv, rows.sensor)} == \
+            {len(rows.meas_epoch)}

@@ -97,3 +97,30 @@ def test_the_first_pass_is_let_go_while_the_refinement_runs(monkeypatch):
     assert settings.discount_first_pass and settings.processing.adapt_noise
     fuse_span(_gps_batch(3), 2.0, settings)
     assert len(first_ps) == 1 and alive_in_refinement == [False, False]
+
+
+def test_each_refinement_pass_starts_on_handed_back_pages(monkeypatch):
+    # before a refinement pass runs, the pass it refines is let go and the free pages handed
+    # back (io.memory.release_freed_between, on a long span): its arrays do not land on the
+    # pages the registration and the noise estimate freed, resident since the last tick
+    import gc
+    import weakref
+    events: list = []
+    made: list = []
+    real = refinement.run_pass
+
+    def pass_spy(*args, **kwargs):
+        events.append("pass")
+        out = real(*args, **kwargs)
+        made.append(weakref.ref(out.Ps))
+        return out
+
+    def trim_spy(n_rows: int) -> bool:
+        gc.collect()
+        events.append(("trim", sum(r() is not None for r in made)))
+        return True
+
+    monkeypatch.setattr(refinement, "run_pass", pass_spy)
+    monkeypatch.setattr(refinement, "release_freed_between", trim_spy)
+    fuse_span(_gps_batch(3), 2.0, EstimatorSettings(processing=ProcessingSettings(noise_passes=2)))
+    assert events == [("trim", 0), "pass", ("trim", 0), "pass"]

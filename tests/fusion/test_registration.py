@@ -119,3 +119,40 @@ def test_clean_data_lose_nothing(tmp_path):
     rm_off = evaluate_run(off.out_dir, tmp_path / "truth.csv")["targets"]["T1"]
     assert rm_on["pos_rmse"] <= 1.03 * rm_off["pos_rmse"]
     assert min(rm_on["inside_3sigma_enu"]) >= min(rm_off["inside_3sigma_enu"]) - 0.01
+
+
+def test_the_last_weights_and_the_rates_are_not_held_through_the_solves(faulted, monkeypatch):
+    # the (N, 6) weights of the last solve are let go before it, and the (N, 4) rates are
+    # made after the solves (they depend on the track only): neither is resident during a
+    # solve it is not used in
+    import gc
+    import weakref
+
+    import rangeproc.fusion.registration as reg
+    weights: list = []
+    rates: list = []
+    during: list[tuple[bool, int]] = []       # per solve: its weights alive, rates made
+    ne, solve, post = reg.normal_equations, reg.solve_joint, reg.postfit
+
+    def ne_spy(*args, **kwargs):
+        weights.append(weakref.ref(args[6]))
+        return ne(*args, **kwargs)
+
+    def solve_spy(*args, **kwargs):
+        gc.collect()
+        during.append((weights[-1]() is not None, sum(r() is not None for r in rates)))
+        return solve(*args, **kwargs)
+
+    def post_spy(*args, **kwargs):
+        out = post(*args, **kwargs)
+        rates.append(weakref.ref(out[1]))
+        return out
+
+    monkeypatch.setattr(reg, "normal_equations", ne_spy)
+    monkeypatch.setattr(reg, "solve_joint", solve_spy)
+    monkeypatch.setattr(reg, "postfit", post_spy)
+    assert run(_variant(faulted, "held")).tracks
+    assert len(during) >= 2 * reg.IRLS_PASSES
+    for k, (alive, held) in enumerate(during):
+        assert alive == (k % reg.IRLS_PASSES < reg.IRLS_PASSES - 1)
+        assert held == 0
