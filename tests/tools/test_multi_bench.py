@@ -50,7 +50,24 @@ def test_acceptance_counts_per_kind_and_names_the_misses():
     assert acc["scale"]["accepted_scaled"] == 2
     assert acc["scale"]["outside"] == ["1 U3: coverage (oracle too)", "1 U4: coverage"]
     assert acc["crossing"] == {"objects": 1, "errors": 1, "accepted_50m": 1,
-                               "accepted_scaled": 1, "outside": []}
+                               "accepted_scaled": 1, "outside": [], "honest": 0,
+                               "scored_honesty": 0, "not_honest": []}
+
+
+def test_honesty_counts_shares_under_the_limit_and_skips_moored_and_unmatched():
+    """Inside 3 sigma on 0.94 of the epochs is under a point object's 0.95 but meets a harbour
+    hull's 0.90; a moored object and a row without the share are not scored."""
+    rows = [row(inside_3sigma=0.99, oracle_inside_3sigma=0.99),
+            row(object="U2", inside_3sigma=0.94, oracle_inside_3sigma=0.99),
+            row(object="U3", inside_3sigma=None),
+            row(kind="harbour", object="B1", inside_3sigma=0.94),
+            row(kind="harbour", object="M1", role="moored", inside_3sigma=0.1)]
+    acc = bench.acceptance(rows)
+    assert (acc["scale"]["honest"], acc["scale"]["scored_honesty"]) == (1, 2)
+    assert acc["scale"]["not_honest"] == ["1 U2: 0.94 (oracle 0.99)"]
+    assert (acc["harbour"]["honest"], acc["harbour"]["scored_honesty"]) == (1, 1)
+    assert bench.inside_3sigma({"inside_3sigma_enu": [0.99, 0.9, 1.0]}) == 0.9
+    assert bench.inside_3sigma({}) is None
 
 
 @pytest.fixture()
