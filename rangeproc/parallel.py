@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import gc
 import multiprocessing
 import os
@@ -34,14 +35,21 @@ R = TypeVar("R")
 M_ARENA_MAX = -8
 
 
+@functools.cache
+def _libc() -> ctypes.CDLL | None:
+    """The C library, looked up once (``find_library`` runs ``ldconfig``: ~10 ms), or None."""
+    name = ctypes.util.find_library("c")
+    try:
+        return ctypes.CDLL(name) if name else None
+    except OSError:
+        return None
+
+
 def libc_function(function: str) -> Callable[..., int] | None:
     """glibc's ``function`` (``malloc_trim``, ``mallopt``), or None (another C library, or
     none found)."""
-    name = ctypes.util.find_library("c")
-    try:
-        return getattr(ctypes.CDLL(name), function, None) if name else None
-    except OSError:
-        return None
+    libc = _libc()
+    return getattr(libc, function, None) if libc is not None else None
 
 
 def one_heap() -> bool:

@@ -47,15 +47,29 @@ def ca_noise(dt: np.ndarray, q: float) -> np.ndarray:
     return axes_blocks(ca_steps(a, q)[1])
 
 
-def manoeuvre_noise(dt: np.ndarray, q: float) -> np.ndarray:
-    """(M, 9, 9) white-acceleration noise of position and velocity over ``|dt|`` (M,) s
-    with PSD ``q`` ((m/s^2)^2/s) (``models.motion.white_acceleration_q``; the acceleration
-    states take none)."""
-    a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
+def _manoeuvre_blocks(a: np.ndarray, q: float) -> np.ndarray:
+    """(M, 3, 3) per-axis white-acceleration noise of position and velocity over ``a`` (M,)
+    s >= 0 with PSD ``q`` ((m/s^2)^2/s) (``models.motion.white_acceleration_q``; the
+    acceleration takes none)."""
     q00, q01, q11 = white_acceleration_q.py_func(a, q)
     B = np.zeros((a.size, 3, 3))
     B[:, 0, 0], B[:, 0, 1], B[:, 1, 0], B[:, 1, 1] = q00, q01, q01, q11
-    return axes_blocks(B)
+    return B
+
+
+def manoeuvre_noise(dt: np.ndarray, q: float) -> np.ndarray:
+    """(M, 9, 9) white-acceleration noise of position and velocity over ``|dt|`` (M,) s
+    with PSD ``q`` ((m/s^2)^2/s) (:func:`_manoeuvre_blocks` on every axis)."""
+    return axes_blocks(_manoeuvre_blocks(np.abs(np.atleast_1d(np.asarray(dt, dtype=float))),
+                                         q))
+
+
+def gap_noise(dt: np.ndarray, q: float, qm: float) -> np.ndarray:
+    """(M, 9, 9) the bridge's process noise over ``|dt|`` (M,) s: white jerk of PSD ``q``
+    (m^2/s^5) plus the manoeuvre's white acceleration of PSD ``qm`` ((m/s^2)^2/s), summed per
+    axis and spread over the axes once (the same values as ``ca_noise + manoeuvre_noise``)."""
+    a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
+    return axes_blocks(ca_steps(a, q)[1] + _manoeuvre_blocks(a, qm))
 
 
 def _fit(t: np.ndarray, ta: float, xa: np.ndarray, Pa: np.ndarray, tb: float,
@@ -65,11 +79,9 @@ def _fit(t: np.ndarray, ta: float, xa: np.ndarray, Pa: np.ndarray, tb: float,
     white-jerk PSD ``q`` and manoeuvre PSD ``qm`` (module docstring)."""
     Ff, Fr = ca_transition(t - ta), ca_transition(t - tb)
     xf = Ff @ xa
-    Pf = (Ff @ Pa @ np.transpose(Ff, (0, 2, 1)) + ca_noise(t - ta, q)
-          + manoeuvre_noise(t - ta, qm))
+    Pf = Ff @ Pa @ np.transpose(Ff, (0, 2, 1)) + gap_noise(t - ta, q, qm)
     xr = Fr @ xb
-    Pr = Fr @ (Pb + ca_noise(tb - t, q) + manoeuvre_noise(tb - t, qm)) @ np.transpose(
-        Fr, (0, 2, 1))
+    Pr = Fr @ (Pb + gap_noise(tb - t, q, qm)) @ np.transpose(Fr, (0, 2, 1))
     If, Ir = np.linalg.inv(Pf), np.linalg.inv(Pr)
     P = np.linalg.inv(If + Ir)
     P = 0.5 * (P + np.transpose(P, (0, 2, 1)))
