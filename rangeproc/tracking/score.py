@@ -36,6 +36,12 @@ from rangeproc.estimation.kernels import add_q, left_f, predict_state, right_f_t
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL, measure, wrap_angle
+from rangeproc.models.motion import (
+    MANOEUVRE_FLOOR,
+    MANOEUVRE_PSD,
+    MANOEUVRE_SPEED,
+    white_acceleration_q,
+)
 
 #: Leading state columns a measurement Jacobian can be non-zero in (position, velocity;
 #: ``models.measurement.measure``).
@@ -80,6 +86,27 @@ def _carry(x: np.ndarray, P: np.ndarray, dt: float, q: float, xo: np.ndarray,
     left_f(P, Po, dt)
     right_f_t(Po, Po, dt)
     add_q(Po, dt, q)
+
+
+@njit(cache=True, nogil=True)
+def _add_manoeuvre(x: np.ndarray, Pe: np.ndarray, P: np.ndarray, dt: float) -> None:
+    """Add to P (9, 9), carried ``dt`` s (either sign) beyond the object's span from its end
+    state ``x`` (9,) with covariance ``Pe`` (9, 9), the white-acceleration noise of a
+    manoeuvre the object's speed allows (``models.motion.manoeuvre_psd`` of that state; the
+    bridge's gap noise, ``fusion.bridge``): the trajectory's own process noise says how the
+    object moved while seen, nothing says it kept to that while unseen."""
+    var_v = (Pe[3, 3] + Pe[4, 4] + Pe[5, 5]) / 3.0
+    speed = math.sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]) + 3.0 * math.sqrt(max(var_v, 0.0))
+    qm = min(max(MANOEUVRE_PSD * (speed / MANOEUVRE_SPEED) ** 2, MANOEUVRE_FLOOR),
+             MANOEUVRE_PSD)
+    q00, q01, q11 = white_acceleration_q(abs(dt), qm)
+    if dt < 0.0:
+        q01 = -q01
+    for k in range(3):
+        P[k, k] += q00
+        P[k, k + 3] += q01
+        P[k + 3, k] += q01
+        P[k + 3, k + 3] += q11
 
 
 @njit(cache=True, nogil=True)
@@ -131,6 +158,8 @@ def row_geometry(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndarra
         r = sel[i]
         e = epoch[i] if epoch[i] >= 0 else _nearest_epoch(ot, t[r])
         _carry(ox[e], oP[e], t[r] - ot[e], oq[e], x, P)
+        if t[r] < ot[0] or t[r] > ot[-1]:            # beyond the span: it may manoeuvre
+            _add_manoeuvre(ox[e], oP[e], P, t[r] - ot[e])
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
         m = np.int64(0)            # not the literal 0: one compiled cholesky_inplace
         for c in range(N_COMPONENTS):

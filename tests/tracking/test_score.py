@@ -99,3 +99,50 @@ def test_clipped_median_offset_equals_the_numpy_computation() -> None:
                         for v in res.T])
         got = clipped_median_offset(res, sig, np.arange(m), tol, BIAS_SIGMAS)
         np.testing.assert_array_equal(got, np.clip(med, -cap, cap))
+
+
+def _one_row(t: float, p: np.ndarray, sigma: float) -> MeasurementBatch:
+    z = np.full((1, 6), np.nan)
+    z[0, :3] = p
+    sig = np.zeros((1, 6))
+    sig[0, :3] = sigma
+    return MeasurementBatch(np.array([t]), np.array([CARTESIAN]), z, sig, np.zeros((1, 3)),
+                            np.zeros((1, 3)), np.eye(3)[None], np.zeros(1, np.int64),
+                            np.arange(1), np.full(1, -1), np.full(1, -1), ("G1",))
+
+
+def test_a_row_beyond_the_span_is_carried_with_the_bridges_gap_noise() -> None:
+    """A row 20 s after (or before) an aircraft's trajectory is predicted with the bridge's
+    gap noise (``fusion.bridge``: white jerk of the track's q plus the manoeuvre PSD its end
+    speed allows), computed here from the bridge's own numpy functions; a backward carry
+    flips the position-velocity terms. Without the manoeuvre the same row, 1.2 km off the
+    straight line (a turn flown in the gap), would lie far outside any gate."""
+    from rangeproc.fusion.bridge import ca_transition, gap_noise
+    from rangeproc.models.motion import manoeuvre_psd
+    from rangeproc.quantiles import chi2_ppf
+    n = 11
+    t = np.arange(n) * 1.0
+    x = np.zeros((n, 9))
+    x[:, 0], x[:, 3] = 200.0 * t, 200.0
+    P = np.tile(np.diag([25.0] * 3 + [4.0] * 3 + [1.0] * 3), (n, 1, 1))
+    q = 0.05
+    track = ObjectTrack(t, x, P, np.full(n, q))
+    for end, dt in ((n - 1, 20.0), (0, -20.0)):
+        xe, Pe = x[end], P[end]
+        F = ca_transition(np.array([dt]))[0]
+        qm = float(manoeuvre_psd(xe[None, 3:6], Pe[None, 3:6, 3:6])[0])
+        Q = gap_noise(np.array([dt]), q, qm)[0]
+        if dt < 0.0:                       # D Q D, D = diag(1, -1, 1) per axis
+            d = np.diag([1.0, 1.0, 1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+            Q = d @ Q @ d
+        xp, Pp = F @ xe, F @ Pe @ F.T + Q
+        row = xp[:3] + np.array([0.0, 1200.0, 0.0])
+        batch = _one_row(float(t[end] + dt), row, 10.0)
+        _, nis, _ = score_rows(batch, np.array([0]), track)
+        S = Pp[:3, :3] + 100.0 * np.eye(3)
+        nu = row - xp[:3]
+        assert math.isclose(float(nis[0]), float(nu @ np.linalg.solve(S, nu)), rel_tol=1e-9)
+        assert nis[0] < chi2_ppf(0.9999, 3)
+        S0 = F @ Pe @ F.T + gap_noise(np.array([dt]), q, 0.0)[0]
+        assert float(nu @ np.linalg.solve(S0[:3, :3] + 100.0 * np.eye(3), nu)) > chi2_ppf(
+            0.9999, 3)
