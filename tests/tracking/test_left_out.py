@@ -69,8 +69,11 @@ def test_a_rival_plot_is_scored_against_the_track_without_the_objects_plot_of_it
         plot_batch, seed, at) -> None:
     """The formation's rival plot meets the trajectory with the object's own plot of the
     scan left out (``deleted_states``), as re-estimating without that plot does. At the
-    track's first plot (``at`` 0) the re-estimate also starts later, from other fixes: the
-    deletion is then nearer to it than the plain score by a factor of four."""
+    track's first plot (``at`` 0) the re-estimate also starts later, from other fixes, and
+    at its last (29) it ends earlier: the rival then lies beyond its span, carried there with
+    the gap noise (white jerk and the manoeuvre its speed allows, ``tracking.score``), which
+    the deletion, keeping the trajectory's ends, does not add. The deletion still lies
+    between the plain score and the re-estimate's, at least half of the way to the latter."""
     batch, rival, own = with_rival(plot_batch, seed, at)
     n = len(batch)
     with_own = object_track(fuse_target(batch.rows(np.delete(np.arange(n), rival)), 4.0,
@@ -81,8 +84,9 @@ def test_a_rival_plot_is_scored_against_the_track_without_the_objects_plot_of_it
     _, nis_in, _ = score_rows(batch, np.array([rival]), with_own)
     _, nis_del, llr_del = score_rows_left_out(batch, np.array([rival]), with_own,
                                               np.array([own]))
-    if at == 0:
-        assert abs(nis_del[0] - nis_out[0]) < 0.25 * abs(nis_in[0] - nis_out[0])
+    if at in (0, 29):
+        assert min(nis_out[0], nis_in[0]) < nis_del[0] < max(nis_out[0], nis_in[0])
+        assert abs(nis_del[0] - nis_out[0]) < 0.5 * abs(nis_in[0] - nis_out[0])
     else:
         assert nis_del[0] == pytest.approx(nis_out[0], rel=0.1, abs=0.05)
         assert llr_del[0] == pytest.approx(llr_out[0], abs=0.2)
