@@ -12,7 +12,8 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
    component), accumulating each model's innovation likelihood; the covariance in the
    standard form ``P - K H P``, re-symmetrised, not the single filter's Joseph form
    (:data:`JOSEPH`);
-4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination.
+4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination (its mean; its
+   covariance only on request, ``combined``: Kim's smoother reads the models' moments).
 
 Models (codes ``CV``, ``CA``, ``CT`` in ``estimation.imm_models``, with their matrices and the
 mixing), all on the 9-state layout so that they mix:
@@ -81,7 +82,7 @@ class IMMOutput(NamedTuple):
     compiled kernel returns the plain tuple, in this order; see its Returns)."""
 
     xf: np.ndarray
-    Pf: np.ndarray
+    Pf: np.ndarray          # (0, n(n+1)/2) unless imm_forward(..., combined=True)
     xm: np.ndarray
     Pm: np.ndarray
     mu: np.ndarray
@@ -99,8 +100,11 @@ class IMMOutput(NamedTuple):
 #: rounding; Bar-Shalom, Li & Kirubarajan 2001 sec. 5.2.3): on seeds 1-3 of ``make accuracy``
 #: every figure within 1e-9 relative of the Joseph form's, with less than half the
 #: covariance update's arithmetic (the IMM updates every model with every row: about 0.5 us
-#: of its 5.1 per row in ``make bench``'s kernel part). ``tests/estimation/test_imm.py``
-#: holds it to the Joseph-form EKF on a prior 10^8 times wider than the rows.
+#: of its 5.1 per row in ``make bench``'s kernel part). Its round-off grows with the ratio
+#: of prior to posterior variance: ``tests/estimation/test_imm.py`` holds the one-model IMM
+#: to the Joseph-form EKF to 1e-9 (each covariance entry over ``sqrt(P_ii P_jj)``) on radar
+#: rows (25 m^2 with 4e-8 rad^2) from priors up to (1 km)^2, every covariance positive
+#: definite (docs/methods/estimators.md: "The IMM at three EKF rows").
 JOSEPH = False
 
 #: The CA prediction at the fast path's state size, inlined (a module global: a compiled
