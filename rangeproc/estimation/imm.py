@@ -7,9 +7,13 @@ The IMM (Blom & Bar-Shalom 1988) runs ``r`` motion models in parallel on the com
    the mixture ``x0_j = sum_i mu_i|j x_i`` (covariance with the spread of the means);
 2. model-conditioned prediction with the model's own transition and process noise;
 3. the epoch's rows update every model by the same compiled update as the single filter
-   (``moments.ekf_row_moments`` + ``update.gated_update``: whitening, Joseph form, chi-square
-   gating per row, then per component), accumulating each model's innovation likelihood;
-4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination.
+   (``moments.ekf_row_moments`` + ``update.gated_update``, the common rows by the fused fast
+   path ``estimation.fast_update``: whitening, chi-square gating per row, then per
+   component), accumulating each model's innovation likelihood; the covariance in the
+   standard form ``P - K H P``, re-symmetrised, not the single filter's Joseph form
+   (:data:`JOSEPH`);
+4. ``mu_j = c_j L_j / sum``; the output is the moment-matched combination (its mean; its
+   covariance only on request, ``combined``: Kim's smoother reads the models' moments).
 
 Models (codes ``CV``, ``CA``, ``CT`` in ``estimation.imm_models``, with their matrices and the
 mixing), all on the 9-state layout so that they mix:
@@ -78,7 +82,7 @@ class IMMOutput(NamedTuple):
     compiled kernel returns the plain tuple, in this order; see its Returns)."""
 
     xf: np.ndarray
-    Pf: np.ndarray
+    Pf: np.ndarray          # (0, n(n+1)/2) unless imm_forward(..., combined=True)
     xm: np.ndarray
     Pm: np.ndarray
     mu: np.ndarray
@@ -89,6 +93,19 @@ class IMMOutput(NamedTuple):
     loglik: float
     n_resets: int
 
+
+#: The models' covariance update: False, the standard form ``P - K H P`` (re-symmetrised)
+#: instead of the Joseph form. The gain is the optimal one to rounding, so the two agree to
+#: rounding (the Joseph form's correction term ``(K - (I - K H) P H^T) K^T`` is itself
+#: rounding; Bar-Shalom, Li & Kirubarajan 2001 sec. 5.2.3): on seeds 1-3 of ``make accuracy``
+#: every figure within 1e-9 relative of the Joseph form's, with less than half the
+#: covariance update's arithmetic (the IMM updates every model with every row: about 0.5 us
+#: of its 5.1 per row in ``make bench``'s kernel part). Its round-off grows with the ratio
+#: of prior to posterior variance: ``tests/estimation/test_imm.py`` holds the one-model IMM
+#: to the Joseph-form EKF to 1e-9 (each covariance entry over ``sqrt(P_ii P_jj)``) on radar
+#: rows (25 m^2 with 4e-8 rad^2) from priors up to (1 km)^2, every covariance positive
+#: definite (docs/methods/estimators.md: "The IMM at three EKF rows").
+JOSEPH = False
 
 #: The CA prediction at the fast path's state size, inlined (a module global: a compiled
 #: helper held in a closure cell would keep the loop out of the cache).
@@ -104,14 +121,14 @@ def _specialise(n_state: int) -> Callable:
     FAST = n_state == fu.N
 
     def kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps, gate,
-               reset_after, reset_inflation, x_lin, codes, Lam, mu0):
+               reset_after, reset_inflation, x_lin, codes, Lam, mu0, combined):
         E = epoch_t.shape[0]
         N = meas_epoch.shape[0]
         n = N_STATE
         r = codes.shape[0]
         npk = n * (n + 1) // 2
         xf = np.empty((E, n))
-        Pf = np.empty((E, npk))
+        Pf = np.empty((E if combined else 0, npk))
         xm = np.empty((E, r, n))
         Pm = np.empty((E, r, npk))
         mu_out = np.empty((E, r))
@@ -211,7 +228,7 @@ def _specialise(n_state: int) -> Callable:
                                         f_Hs) if FAST else -1
                     if mf > 0:                                  # the fast path took the row
                         val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, mf, X[j],
-                                                   PP[j], gate, True, f_yw, f_winv, f_HP, f_S,
+                                                   PP[j], gate, JOSEPH, f_yw, f_winv, f_HP, f_S,
                                                    f_dinv, f_Kt, f_AP, f_APHt)
                         mask = 0
                         if ok:                                  # the whole row passed
@@ -219,7 +236,7 @@ def _specialise(n_state: int) -> Callable:
                         else:                                   # per-component re-gating
                             val, ok, _, mask, ll_row = fu.update(
                                 f_y, f_sig_row, f_C, f_Z, f_Hs, f_idx, mf, X[j], PP[j], gate,
-                                True, False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
+                                JOSEPH, False, f_sel, f_sig, f_yw, f_HP, f_S, f_Kt, f_AP, f_APHt,
                                 f_sdiag, ew, Sinv)
                     else:
                         for a in range(m):
@@ -228,7 +245,7 @@ def _specialise(n_state: int) -> Callable:
                                         x_lin[k] if use_lin else X[j], use_lin, PP[j], idx, m,
                                         h, H, y6, y, C, Z, Hs, sig_row)
                         val, ok, _, mask, ll_row = update_row(y, sig_row, C, Z, Hs, idx, m, X[j],
-                                                              PP[j], gate, True, False, sel, sig,
+                                                              PP[j], gate, JOSEPH, False, sel, sig,
                                                               yw, HP, S, Kt, AP, APHt, sdiag, ew,
                                                               Sinv)
                     ll[j] += ll_row
@@ -268,12 +285,20 @@ def _specialise(n_state: int) -> Callable:
             for j in range(r):
                 mu[j] /= tot
             loglik += top + math.log(tot)
-            combine_n(X, PP, mu, xt, T, dx, N_STATE)            # combination
+            if combined:                                        # combination
+                combine_n(X, PP, mu, xt, T, dx, N_STATE)
+                pack_n(T, Pf[k], N_STATE)
+            else:                                               # its mean alone: combine_n's
+                for a in range(n):                              # sums, the same bits
+                    acc = 0.0
+                    for j in range(r):
+                        if mu[j] != 0.0:
+                            acc += mu[j] * X[j, a]
+                    xt[a] = acc
             for b in range(n):
                 if not math.isfinite(xt[b]):
                     raise FloatingPointError("non-finite state in the IMM filter")
             xf[k] = xt
-            pack_n(T, Pf[k], N_STATE)
             mu_out[k] = mu
             for j in range(r):
                 xm[k, j] = X[j]
@@ -292,16 +317,19 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
                 Qr: np.ndarray, sensor: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                 q_steps: np.ndarray, gate: np.ndarray, reset_after: int,
                 reset_inflation: float, x_lin: np.ndarray, codes: np.ndarray,
-                Lam: np.ndarray, mu0: np.ndarray):
+                Lam: np.ndarray, mu0: np.ndarray, combined: bool = False):
     """IMM filter over all epochs (module docstring), EKF updates.
 
     Arguments as the shared forward loop (``estimation.forward_loop``: rows, prior,
     ``q_steps``, gate, divergence guard, ``x_lin`` linearisation states or zero rows) plus
     ``codes`` (r,) model codes, ``Lam`` (r, r) switching generator (1/s) and ``mu0`` (r,)
-    initial model probabilities.
+    initial model probabilities; ``combined``: also the combined filtered covariance ``Pf``
+    (Kim's smoother and the pipeline read the models' moments only, so by default it is
+    neither computed nor stored: ``Pf`` is then (0, n(n+1)/2)).
 
     Returns:
-        xf (E, n) combined filtered states, Pf (E, n(n+1)/2) packed; xm (E, r, n), Pm
+        xf (E, n) combined filtered states, Pf (E, n(n+1)/2) packed (``combined``, else
+        (0, n(n+1)/2)); xm (E, r, n), Pm
         (E, r, n(n+1)/2) model-conditioned filtered states and covariances, mu (E, r) model
         probabilities, omega (E, r) turn rate each model used on the step ending at each
         epoch; nis (N,), dof (N,), rejected (N,) bit masks (under the model most probable
@@ -312,4 +340,4 @@ def imm_forward(epoch_t: np.ndarray, meas_epoch: np.ndarray, model: np.ndarray,
     if kernel is None:
         kernel = _KERNELS[n] = _specialise(n)
     return kernel(epoch_t, meas_epoch, model, z, sigma, s, sv, Qr, sensor, x0, P0, q_steps,
-                  gate, reset_after, reset_inflation, x_lin, codes, Lam, mu0)
+                  gate, reset_after, reset_inflation, x_lin, codes, Lam, mu0, combined)

@@ -50,7 +50,7 @@ def _specialise(n_state: int) -> Callable:
         Pn = np.empty((r, n, n))
         Xk = np.zeros((r, n))                 # zeros: a pruned model's rows are never set
         Pk = np.zeros((r, n, n))
-        wc = np.empty(r)                                        # combination weights
+        wc = np.ones(r)                       # combination weights (ones: prefetch all first)
         Xp = np.empty((r, r, n))                                # pair means at k
         Pp = np.empty((r, r, n, n))
         W = np.empty((r, r))
@@ -81,11 +81,14 @@ def _specialise(n_state: int) -> Callable:
         blk = r * npk
         for k in range(E - 2, -1, -1):
             kp = k - PREFETCH_AHEAD                             # the history read, the
-            if kp >= 0:                                         # output written, ahead
-                for b in range(0, blk, LINE_DOUBLES):
-                    prefetch(Pm, kp * blk + b)
-                for b in range(0, r * n, LINE_DOUBLES):
-                    prefetch(xm, kp * r * n + b)
+            if kp >= 0:                                         # output written, ahead:
+                for j in range(r):                              # the models smoothed at
+                    if wc[j] != 0.0:                            # k + 1 (a pruned model's
+                        o = kp * blk + j * npk                  # rows are seldom read)
+                        for b in range(0, npk + LINE_DOUBLES - 1, LINE_DOUBLES):
+                            prefetch(Pm, o + min(b, npk - 1))
+                        prefetch(xm, (kp * r + j) * n)
+                        prefetch(xm, (kp * r + j) * n + n - 1)
                 for b in range(0, npk, LINE_DOUBLES):
                     prefetch(Ps, kp * npk + b)
                 prefetch(xs, kp * n)
