@@ -168,9 +168,10 @@ def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,
     names, units = COMPONENTS[model]
     have = [c for c in range(len(names)) if np.isfinite(b.z[rows, c]).any()]
     station = b.station[rows] if kind == "mistram" else None
-    measured = np.isfinite(b.z[rows][:, have])
+    cells = np.ix_(rows, have)          # the measured columns gathered at once, no (n, 6) copies
+    measured = np.isfinite(b.z[cells])
     return SensorResiduals(
         sensor_id=b.sensor_ids[sensor_index], kind=kind, target_id=target_id,
         components=tuple(names[c] for c in have), units=tuple(units[c] for c in have),
-        time=b.t[rows], residual=result.res[rows][:, have], sigma=b.sigma[rows][:, have],
-        rejected=measured & ~result.used[rows][:, have], nis=result.nis[rows], station=station)
+        time=b.t[rows], residual=result.res[cells], sigma=b.sigma[cells],
+        rejected=measured & ~result.used[cells], nis=result.nis[rows], station=station)

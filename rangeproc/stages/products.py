@@ -211,11 +211,14 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     levers = {t.id: (i, t.lever_arm) for i, t in enumerate(cfg.targets) if any(t.lever_arm)}
     for tid, result in fused:
         stated_var = reference_variance(result.batch, result.noise, stated, radar)
-        fitted = object_extent(result.batch, result.xs[result.meas_epoch], result.used, radar)
-        persistent = persistent_offset(result.batch, result.xs[result.meas_epoch],
-                                       result.used, radar)
-        spread = spread_extent((spreads or {}).get(tid)) if plots_only(result.batch, radar) \
-            else Extent()
+        plots = plots_only(result.batch, radar)
+        # the smoothed state at each row (N, n), gathered once and only for an object of
+        # plots alone: for any other both extents are 0 without reading it
+        at_rows = result.xs[result.meas_epoch] if plots else result.xs[:0]
+        fitted = object_extent(result.batch, at_rows, result.used, radar)
+        persistent = persistent_offset(result.batch, at_rows, result.used, radar)
+        del at_rows
+        spread = spread_extent((spreads or {}).get(tid)) if plots else Extent()
         lever = _lever_arm(tid, result, radar, levers)
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
