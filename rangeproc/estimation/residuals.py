@@ -31,13 +31,16 @@ def smoothed_residuals(meas_epoch: np.ndarray, model: np.ndarray, z: np.ndarray,
     (``rangeproc.parallel.row_chunks``), with the same values.
     """
     N = meas_epoch.shape[0]
-    res = np.empty((N, N_COMPONENTS))    # every entry written by the kernel (NaN where
-    hph = np.empty((N if Ps is not None else 0, N_COMPONENTS))   # not measured), in the
-    cov = Ps if Ps is not None else np.empty((0, 0))              # row chunks' threads
+    explain = Ps is not None
+    # every entry written by the kernel (NaN where not measured), in the row chunks' threads;
+    # without Ps, hph has no rows and the kernel neither reads Ps nor writes hph
+    res = np.empty((N, N_COMPONENTS))
+    hph = np.empty((N if explain else 0, N_COMPONENTS))
+    cov = Ps if explain else np.empty((0, 0))
     thread_map(lambda r: _residuals_into(meas_epoch[r], model[r], z[r], s[r], sv[r], Qr[r],
-                                         xs, cov, res[r], hph[r] if Ps is not None else hph),
+                                         xs, cov, res[r], hph[r] if explain else hph),
                row_chunks(N))
-    return res, (hph if Ps is not None else None)
+    return res, (hph if explain else None)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -83,9 +83,9 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     def col(a: np.ndarray) -> np.ndarray:         # only the columns the filter reads
         return a if every else a[idx]
 
-    rows = FilterRows(result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]),
-                      col(b.model), col(b.z), np.ascontiguousarray(sigma), col(b.s),
-                      col(b.sv), col(b.Qr), col(b.sensor))
+    rows = FilterRows(result.epoch_t, col(result.meas_epoch), col(b.model), col(b.z),
+                      np.ascontiguousarray(sigma), col(b.s), col(b.sv), col(b.Qr),
+                      col(b.sensor))
     del sigma
     release_freed_between(len(b))       # what the thinning let go, before the filter's arrays
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
