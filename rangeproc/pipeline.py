@@ -30,7 +30,8 @@ from rangeproc.run_warnings import collect_warnings
 from rangeproc.stages.assemble import assemble_all, sensor_sites
 from rangeproc.stages.associate import associate
 from rangeproc.stages.fuse import estimator_settings, fuse_objects, target_prior
-from rangeproc.stages.products import sensor_summaries, settle
+from rangeproc.stages.products import (achievable_tracks, sensor_summaries, settle,
+                                       without_covariances)
 from rangeproc.stages.read import read_all
 from rangeproc.stages.report import draw_figures, write_report_page
 from rangeproc.stages.screen import screen
@@ -191,6 +192,9 @@ def _run(config_path: str | Path, clock_in: StageClock | None, warnings: list[st
                            {s.id: s.angle_unit for s in cfg.sensors})
     for sid, counts in edit_summary(edit_rows, fused, sensor_ids).items():
         sensor_summary[sid].update(counts)
+    # the fusion's per-epoch covariances, residuals and explained variances are not read
+    # after the edit table: let go before the row accounting and the achievable pass
+    fused = without_covariances(fused)
     # the calendar of the run's times (UTC clock time or seconds from start on the page)
     scale = time_scale([tr.time for tr in tracks] + [r.time for r in residuals],
                        cfg.output.epoch)
@@ -206,8 +210,12 @@ def _run(config_path: str | Path, clock_in: StageClock | None, warnings: list[st
             account(cfg, sensor_summary, row_accounting(
                 cfg, {sid: lg.n_read for sid, lg in logs.items()}, read_rows, logs,
                 screened.edits, associated.kept, association, fused), logs)
-        # the fusion results and the logs are not read again: their arrays (a long sortie's
-        # per-epoch covariances among them) are let go before the report draws
+        # the achievable accuracy once the fusion's covariances and residuals are gone:
+        # its pass's filter history is a long sortie's largest array after them
+        with clock.stage("products", len(tracks)) as tick:
+            tracks = achievable_tracks(tracks, fused, tick)
+        # the fusion results and the logs are not read again: their arrays are let go
+        # before the report draws
         del fused, logs, screened
         exports: list[Path] = []
 

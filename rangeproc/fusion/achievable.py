@@ -23,7 +23,6 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
-from rangeproc.estimation.linalg import packed_diagonal
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
@@ -38,6 +37,8 @@ LEAST_RATE_HZ = 5.0
 #: The pass's starting covariance (diagonal: m^2, (m/s)^2, (m/s^2)^2): wide, as a run's
 #: own start from its first fixes.
 P0_DIAG = np.repeat([1e4, 1e2, 1e1], 3)
+#: The packed entries (``estimation.linalg.pack``) of the position variances P[i, i], i < 3.
+POSITION_VARIANCES = tuple(i * (i + 3) // 2 for i in range(3))
 
 
 def _row_sigma(result: FusionResult) -> np.ndarray:
@@ -82,9 +83,9 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     def col(a: np.ndarray) -> np.ndarray:         # only the columns the filter reads
         return a if every else a[idx]
 
-    rows = FilterRows(result.epoch_t, np.ascontiguousarray(result.meas_epoch[idx]),
-                      col(b.model), col(b.z), np.ascontiguousarray(sigma), col(b.s),
-                      col(b.sv), col(b.Qr), col(b.sensor))
+    rows = FilterRows(result.epoch_t, col(result.meas_epoch), col(b.model), col(b.z),
+                      np.ascontiguousarray(sigma), col(b.s), col(b.sv), col(b.Qr),
+                      col(b.sensor))
     del sigma
     release_freed_between(len(b))       # what the thinning let go, before the filter's arrays
     x_lin = np.ascontiguousarray(result.xs[:, :N_KINEMATIC])
@@ -94,8 +95,8 @@ def achievable_sigma(result: FusionResult) -> np.ndarray:
     del rows, prior, x_lin, fwd         # track are not needed by the smoother: let go first
     # fade and jerk given (None) as the passes give them: one compiled smoother for both
     _, Ps, _ = rts_smooth(result.epoch_t, xf, Pf, result.q, False, True, None, None)
-    var = packed_diagonal(Ps[result.grid], 0, 3)
+    var = Ps[np.flatnonzero(result.grid)[:, None], POSITION_VARIANCES]   # (G, 3), no copies
     del xf, Pf, Ps
     t = result.epoch_t[result.grid]
-    var = var + packed_diagonal(spans_calibration_covariance(result.calibration, t), 0, 3)
+    var += spans_calibration_covariance(result.calibration, t, POSITION_VARIANCES)
     return np.sqrt(np.maximum(var, 0.0))

@@ -53,7 +53,8 @@ def component_use(z: np.ndarray, rejected: np.ndarray) -> np.ndarray:
 
 
 class PassResult(NamedTuple):
-    """One filter + smoother pass: smoothed ``xs`` (E, n), packed ``Ps``; ``em`` (E,) the EM
+    """One filter + smoother pass: smoothed ``xs`` (E, n), packed ``Ps`` (E, n(n+1)/2; empty
+    (0, 0) once let go, :func:`without_covariances`); ``em`` (E,) the EM
     process-noise statistic (None for the IMM, whose models carry their own dynamics); per row
     ``nis``, ``dof``, ``used`` (N, 6), ``res``, ``hph`` (N, 6); divergence-guard ``resets``;
     the ``batch`` with the sigmas used; ``model_prob`` (E, r) the IMM's smoothed model
@@ -148,16 +149,34 @@ def filter_settings(st, gate: np.ndarray, maneuver_norm: float = 0.0) -> FilterS
         imm=imm)
 
 
+#: Rows gathered at a time by :func:`corrected_residuals` (bounds its copies of the rows'
+#: arrays, 232 B a row, to 15 MiB; two row chunks side by side, ``rangeproc.parallel``).
+CORRECTED_BLOCK_ROWS = 65_536
+
+
 def corrected_residuals(b: MeasurementBatch, sensors, out: PassResult,
                         meas_epoch: np.ndarray) -> np.ndarray:
     """The pass's residuals (N, 6) with those of the rows of ``sensors`` (indices), whose
     values were just corrected, recomputed (same smoothed track; ``hph`` changes only to
-    second order)."""
+    second order and is kept, so the pass's covariances ``out.Ps`` are not read: they may
+    have been let go, :func:`without_covariances`). The rows are taken
+    :data:`CORRECTED_BLOCK_ROWS` at a time (the same values)."""
     rows = np.flatnonzero(np.isin(b.sensor, list(sensors)))
     res = out.res.copy()
-    res[rows], _ = smoothed_residuals(meas_epoch[rows], b.model[rows], b.z[rows], b.s[rows],
-                                      b.sv[rows], b.Qr[rows], out.xs, out.Ps)
+    for lo in range(0, len(rows), CORRECTED_BLOCK_ROWS):
+        k = rows[lo:lo + CORRECTED_BLOCK_ROWS]
+        res[k] = smoothed_residuals(meas_epoch[k], b.model[k], b.z[k], b.s[k], b.sv[k],
+                                    b.Qr[k], out.xs, None)[0]
     return res
+
+
+def without_covariances(out: PassResult) -> PassResult:
+    """``out`` without its smoothed covariances (``Ps`` empty (0, 0)): a pass being refined
+    is not the span's result (the next pass replaces it, or it is run again from its inputs
+    should the next fail), and nothing the refinement reads between the passes (the
+    registration, the residuals of corrected rows, the noise estimates) needs them; they
+    are a span's largest array (E x 45 x 8 B: 52 MiB of a 298,000-row sortie)."""
+    return out._replace(Ps=np.empty((0, 0)))
 
 
 def imm_generator(n_models: int, sojourn: float) -> np.ndarray:

@@ -1,6 +1,8 @@
 """From a FusionResult to the products: the output-grid track and per-sensor residuals."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from rangeproc.estimation.linalg import unpack_many
@@ -109,7 +111,8 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
                    rate_hz: float, max_bridge: float = 0.0,
                    stated: np.ndarray | None = None,
                    reference: Extent = Extent(),
-                   lever_arm: tuple[float, float, float] | None = None) -> TrackEstimate:
+                   lever_arm: tuple[float, float, float] | None = None,
+                   with_achievable: bool = True) -> TrackEstimate:
     """The smoothed state on the output grid, with geodetic position and n_sensors; gaps
     between spans up to ``max_bridge`` s are filled by the least-squares fit of
     ``fusion.bridge``; epochs where the object's own rows reject the trajectory are left out
@@ -119,11 +122,13 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
     heading, ``fusion.reference_point.reference_extent``) is added to the horizontal position
     covariance of every epoch, turned with the smoothed heading (``fusion.extent``); a
     ``lever_arm`` (forward, right, down; m) moves the reported point by it in the body frame
-    of the smoothed heading (``fusion.extent.held_heading``; the velocity is left as it is)."""
-    # the achievable pass first: its forward history (an (E, 45) covariance per epoch) is let
-    # go before the grid's covariances are unpacked, so the two are never resident together
-    on_grid = achievable_sigma(result)
-    release_freed_between(len(result.batch))   # and its freed pages before the grid's arrays
+    of the smoothed heading (``fusion.extent.held_heading``; the velocity is left as it is).
+    ``with_achievable`` False: ``achievable`` None, for :func:`with_achievable_sigma` once
+    the result's covariances are let go (the products stage: a long sortie's peak)."""
+    on_grid = None
+    if with_achievable:     # its forward history let go before the grid's covariances unpack
+        on_grid = achievable_sigma(result)
+        release_freed_between(len(result.batch))   # and its freed pages before the grid's
     t = result.epoch_t[result.grid]
     x = result.xs[result.grid][:, :9]
     n = result.xs.shape[1]
@@ -133,13 +138,16 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
         t, x, P, filled = bridge_gaps(t, x, P, result.q[result.grid], rate_hz, max_bridge)
     if reference.along > 0.0 or reference.across > 0.0:  # where the reference point can be
         P[:, :2, :2] += extent_covariance(reference, x[:, 3:5])    # (P: unpacked here)
-    achievable = np.full((t.size, 3), np.nan)           # none inside a bridged gap
-    achievable[~filled] = on_grid
+    achievable = None
+    if on_grid is not None:
+        achievable = np.full((t.size, 3), np.nan)       # none inside a bridged gap
+        achievable[~filled] = on_grid
     # none where its own rows reject it
     keep = supported(t, result.batch, result.used, result.res, stated)
     unwritten = left_out(t, keep)
     if not keep.all():                                  # (every epoch kept: no copies)
-        t, x, P, achievable = t[keep], x[keep], P[keep], achievable[keep]
+        t, x, P = t[keep], x[keep], P[keep]
+        achievable = None if achievable is None else achievable[keep]
     if lever_arm is not None:                           # the user's point on the object
         x = x.copy()
         x[:, :3] += lever_offset(held_heading(x[:, 3:5]), lever_arm)
@@ -159,6 +167,26 @@ def track_estimate(target_id: str, result: FusionResult, frame: RangeFrame,
                          achievable=achievable, unwritten=unwritten)
 
 
+def with_achievable_sigma(track: TrackEstimate, result: FusionResult) -> TrackEstimate:
+    """``track`` (of ``result``, as :func:`track_estimate` made it without the achievable
+    sigma, perhaps extended by ``fusion.formation``) with its ``achievable`` (K, 3) m: the
+    achievable 1-sigma position (``fusion.achievable``) at the epochs that are the result's
+    output epochs (found by time, outside the stretches left ``unwritten``), NaN elsewhere
+    (bridged, extended). Reads the result's batch, states, noise and grid, not its
+    covariances or residuals: a caller may have let those go first."""
+    on_grid = achievable_sigma(result)
+    release_freed_between(len(result.batch))
+    grid_t = result.epoch_t[result.grid]
+    t = track.time
+    j = np.minimum(np.searchsorted(grid_t, t), max(grid_t.size - 1, 0))
+    own = grid_t[j] == t if grid_t.size else np.zeros(t.size, dtype=bool)
+    for first, last in track.unwritten:      # a grid epoch left out: an extension's epoch
+        own &= (t < first) | (t > last)
+    achievable = np.full((t.size, 3), np.nan)
+    achievable[own] = on_grid[j[own]]
+    return replace(track, achievable=achievable)
+
+
 def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,
                      kind: str) -> SensorResiduals:
     """Residuals of one sensor's rows (only the components the sensor measured at all)."""
@@ -168,9 +196,10 @@ def sensor_residuals(target_id: str, result: FusionResult, sensor_index: int,
     names, units = COMPONENTS[model]
     have = [c for c in range(len(names)) if np.isfinite(b.z[rows, c]).any()]
     station = b.station[rows] if kind == "mistram" else None
-    measured = np.isfinite(b.z[rows][:, have])
+    cells = np.ix_(rows, have)          # the measured columns gathered at once, no (n, 6) copies
+    measured = np.isfinite(b.z[cells])
     return SensorResiduals(
         sensor_id=b.sensor_ids[sensor_index], kind=kind, target_id=target_id,
         components=tuple(names[c] for c in have), units=tuple(units[c] for c in have),
-        time=b.t[rows], residual=result.res[rows][:, have], sigma=b.sigma[rows][:, have],
-        rejected=measured & ~result.used[rows][:, have], nis=result.nis[rows], station=station)
+        time=b.t[rows], residual=result.res[cells], sigma=b.sigma[cells],
+        rejected=measured & ~result.used[cells], nis=result.nis[rows], station=station)

@@ -28,7 +28,12 @@ from rangeproc.estimation.tuning import local_process_noise, search_rows, start_
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.fusion.noise import residual_sigma
-from rangeproc.fusion.passes import PassResult, corrected_residuals, run_pass
+from rangeproc.fusion.passes import (
+    PassResult,
+    corrected_residuals,
+    run_pass,
+    without_covariances,
+)
 from rangeproc.fusion.refraction_rows import refraction_corrections
 from rangeproc.fusion.registration import (
     Calibration,
@@ -124,6 +129,9 @@ def refine(inp: PassInputs, box: list[tuple[PassResult, Callable[[], PassResult]
                                               inp.settings.refraction)
             corrected = np.flatnonzero(np.asarray(inp.settings.refraction.surface_n) > 0)
             st.out = st.out._replace(res=_residuals_of(st, corrected))
+        # the pass refined here is not the result (the next pass replaces it): its
+        # covariances go before the registration and the noise estimate allocate theirs
+        st.out = without_covariances(st.out)
         if inp.settings.calibration:
             last = _register(st, inp, k, last)
         _next_noise(st, inp, k)

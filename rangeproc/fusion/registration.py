@@ -469,21 +469,29 @@ def row_shift(before: np.ndarray, after: np.ndarray, sigma: np.ndarray,
     return worst
 
 
-def calibration_covariance(cal: Calibration, t: np.ndarray) -> np.ndarray:
+def calibration_covariance(cal: Calibration, t: np.ndarray,
+                           columns: Sequence[int] | None = None) -> np.ndarray:
     """(M, 45) packed 9x9 trajectory covariance added by the calibration's uncertainty at
-    times ``t`` (M,) s (the nearest node's, ``Calibration.node_cov``)."""
+    times ``t`` (M,) s (the nearest node's, ``Calibration.node_cov``); with ``columns``
+    (indices into the 45 packed entries) only those, (M, len(columns)): the same values."""
     i, j = np.tril_indices(N_NODE)
+    if columns is not None:
+        i, j = i[list(columns)], j[list(columns)]
     packed = cal.node_cov[:, i, j]
     return packed[nearest_index(cal.node_t, t)]
 
 
-def spans_calibration_covariance(cals: Sequence[Calibration], t: np.ndarray) -> np.ndarray:
+def spans_calibration_covariance(cals: Sequence[Calibration], t: np.ndarray,
+                                 columns: Sequence[int] | None = None) -> np.ndarray:
     """(M, 45) packed 9x9 covariance the calibrations of a result's spans add at times ``t``
     (M,) s: each span's :func:`calibration_covariance` within its nodes' time range, as the
-    fusion added it to that span's output epochs; 0 outside every span."""
-    out = np.zeros((len(t), N_NODE * (N_NODE + 1) // 2))
+    fusion added it to that span's output epochs; 0 outside every span. ``columns``: only
+    those packed entries, (M, len(columns)) (a caller that reads a few: an hour's output
+    epochs are 12 MiB in all 45)."""
+    width = N_NODE * (N_NODE + 1) // 2 if columns is None else len(columns)
+    out = np.zeros((len(t), width))
     for cal in cals:
         if len(cal.node_t):
             inside = (t >= cal.node_t[0]) & (t <= cal.node_t[-1])
-            out[inside] += calibration_covariance(cal, t[inside])
+            out[inside] += calibration_covariance(cal, t[inside], columns)
     return out

@@ -61,16 +61,19 @@ def _component_stats(use: ObjectUse
     at = np.flatnonzero(res.batch.sensor == i)       # the sensor's rows, in time order
     model = int(res.batch.model[at[0]])
     names, units = COMPONENTS[model]
-    t, z, r = res.batch.t[at], res.batch.z[at], res.res[at]
+    t = res.batch.t[at]
     out = {}
     for c, (name, unit) in enumerate(zip(names, units)):
-        if not np.isfinite(z[:, c]).any():
+        # one column gathered at a time, not the rows' (n, 6) measurements and residuals
+        # (a long sortie's sensor: 12 MiB resident again at the products' end)
+        if not np.isfinite(res.batch.z[at, c]).any():
             continue
-        used = res.used[at, c] & np.isfinite(r[:, c])
+        r = res.res[at, c]
+        used = res.used[at, c] & np.isfinite(r)
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = r[:, c] / res.batch.sigma[at, c]
+            u = r / res.batch.sigma[at, c]
         rho = lag_correlation(t, u, used)
-        out[name] = (unit, res.noise.get((i, c)), r[used, c], rho)
+        out[name] = (unit, res.noise.get((i, c)), r[used], rho)
     return out
 
 

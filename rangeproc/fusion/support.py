@@ -70,7 +70,28 @@ def position_rows(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
     position, and whether every position component they measured was accepted (``used``
     (N, 6) bool) with its smoothed residual (``res`` (N, 6), the row's units) within
     ``FIT_SIGMAS`` of its sigma, at most ``NOISE_CEILING`` times ``stated`` (S, 3), the
-    stated sigmas of the first three components per sensor index (NaN: no ceiling)."""
+    stated sigmas of the first three components per sensor index (NaN: no ceiling).
+
+    Rows are judged :data:`BLOCK_ROWS` at a time (each on its own: the same verdicts), so
+    that the (N, 3) intermediates of a long sortie are not all held at once."""
+    n = len(batch.t)
+    is_position = np.empty(n, dtype=bool)
+    fits = np.empty(n, dtype=bool)
+    for lo in range(0, n, BLOCK_ROWS):
+        at = slice(lo, min(lo + BLOCK_ROWS, n))
+        is_position[at], fits[at] = _judged(batch.rows(at), used[at], res[at], stated)
+    if stated is not None:
+        fits &= ~drifting(batch, res, stated, is_position)
+    return is_position, fits
+
+
+#: Rows judged at a time by :func:`position_rows` (its intermediates: about 2 MiB).
+BLOCK_ROWS = 32_768
+
+
+def _judged(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
+            stated: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`position_rows` of a block of rows (views), before the drift test."""
     z = batch.z
     cart = (batch.model == CARTESIAN) & np.isfinite(z[:, :3]).all(axis=1)
     sph = (batch.model == SPHERICAL) & np.isfinite(z[:, 0]) & np.isfinite(z[:, 1])
@@ -83,10 +104,7 @@ def position_rows(batch: MeasurementBatch, used: np.ndarray, res: np.ndarray,
         close = np.abs(res[:, :3]) <= FIT_SIGMAS * sigma
     accepted = np.where(measured, used[:, :3] & close, True).all(axis=1)
     is_position = cart | sph
-    fits = is_position & accepted
-    if stated is not None:
-        fits &= ~drifting(batch, res, stated, is_position)
-    return is_position, fits
+    return is_position, is_position & accepted
 
 
 def drifting(batch: MeasurementBatch, res: np.ndarray, stated: np.ndarray,

@@ -7,6 +7,7 @@ import copy
 import logging
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,7 @@ from rangeproc.fusion.agreement import FarSensor, far_line, far_sensors, pair_li
 from rangeproc.fusion.calibration_summary import calibration_summary, time_offset_summary
 from rangeproc.fusion.estimator_types import EstimatorSettings, FusionResult
 from rangeproc.fusion.isolated import isolated_objects, leave_out
-from rangeproc.fusion.products import sensor_residuals, track_estimate
+from rangeproc.fusion.products import sensor_residuals, track_estimate, with_achievable_sigma
 from rangeproc.fusion.formation import formation_spans
 from rangeproc.fusion.extent import (HEADING_SPEED, Extent, held_heading, object_extent,
                                      plots_only)
@@ -211,15 +212,18 @@ def products(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult
     levers = {t.id: (i, t.lever_arm) for i, t in enumerate(cfg.targets) if any(t.lever_arm)}
     for tid, result in fused:
         stated_var = reference_variance(result.batch, result.noise, stated, radar)
-        fitted = object_extent(result.batch, result.xs[result.meas_epoch], result.used, radar)
-        persistent = persistent_offset(result.batch, result.xs[result.meas_epoch],
-                                       result.used, radar)
-        spread = spread_extent((spreads or {}).get(tid)) if plots_only(result.batch, radar) \
-            else Extent()
+        plots = plots_only(result.batch, radar)
+        # the smoothed state at each row (N, n), gathered once and only for an object of
+        # plots alone: for any other both extents are 0 without reading it
+        at_rows = result.xs[result.meas_epoch] if plots else result.xs[:0]
+        fitted = object_extent(result.batch, at_rows, result.used, radar)
+        persistent = persistent_offset(result.batch, at_rows, result.used, radar)
+        del at_rows
+        spread = spread_extent((spreads or {}).get(tid)) if plots else Extent()
         lever = _lever_arm(tid, result, radar, levers)
         track = track_estimate(tid, result, frame, cfg.output.rate_hz,
                                max_bridge=BRIDGE_FACTOR * settings.processing.max_gap,
-                               stated=stated, lever_arm=lever,
+                               stated=stated, lever_arm=lever, with_achievable=False,
                                reference=reference_extent(stated_var, fitted, persistent,
                                                           spread))
         tracks.append(track)
@@ -287,6 +291,35 @@ def settle(cfg: Config, frame: RangeFrame, fused: list[tuple[str, FusionResult]]
         if entry is not None and len(track.time) != entry["n_epochs"]:
             entry.update(_track_span(track))
     return fused, tracks, residuals, targets
+
+
+def without_covariances(fused: list[tuple[str, FusionResult]]
+                        ) -> list[tuple[str, FusionResult]]:
+    """The fusion results without their per-epoch covariances ``Ps``, per-row residuals
+    ``res`` and explained variances ``hph`` (empty arrays of their widths): what the
+    achievable pass (:func:`achievable_tracks`) does not read, let go before it runs once
+    the caller drops the results given."""
+    def light(r: FusionResult) -> FusionResult:
+        return replace(r, Ps=np.empty((0,) + r.Ps.shape[1:]),
+                       res=np.empty((0,) + r.res.shape[1:]),
+                       hph=np.empty((0,) + r.hph.shape[1:]))
+    return [(tid, light(r)) for tid, r in fused]
+
+
+def achievable_tracks(tracks: list[TrackEstimate], fused: list[tuple[str, FusionResult]],
+                      tick: Callable[..., None] = lambda *a, **k: None
+                      ) -> list[TrackEstimate]:
+    """``tracks`` (from :func:`settle`) with the achievable 1-sigma position of each fused
+    object's epochs (``fusion.products.with_achievable_sigma``). Run after the edit table
+    and the row accounting, on :func:`without_covariances`' results: the pass's filter
+    history (an (E, 45) covariance per epoch) is then never resident beside the fusion's."""
+    results = dict(fused)
+    out = []
+    for track in tracks:
+        result = results.get(track.target_id)
+        out.append(track if result is None else with_achievable_sigma(track, result))
+        tick(1, track.target_id)
+    return out
 
 
 def plausibility(cfg: Config, sensor_summary: Mapping[str, SensorSummary],

@@ -4,15 +4,22 @@ instruments (a GPS noise burst), and the long-span thinning equivalent to every 
 from __future__ import annotations
 
 import weakref
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 import rangeproc.fusion.achievable as ach
 import rangeproc.fusion.products as products
+import rangeproc.pipeline as pipeline
+from rangeproc.frames.geodesy import Geodetic, RangeFrame
+from rangeproc.fusion.centralised import fuse_target
+from rangeproc.fusion.estimator_types import EstimatorSettings
+from rangeproc.fusion.products import track_estimate
 from rangeproc.pipeline import run
 from rangeproc.simulate import simulate_scenario
 from rangeproc.simulate.scenario import draw_scenario
+from tests.conftest import gps_line_batch
 
 
 @pytest.fixture(scope="module")
@@ -48,28 +55,30 @@ def test_a_long_span_thinned_with_scaled_sigma_gives_the_same(tmp_path, monkeypa
     assert np.median(thinned / whole) == pytest.approx(1.0, abs=0.03)
 
 
-def test_the_pass_history_is_let_go_before_the_grid_covariances(tmp_path, monkeypatch):
-    # the achievable pass's smoothed covariances (one per epoch) are gone before the output
-    # grid's are unpacked: a long sortie never holds both (products stage's peak)
+def test_the_fusion_covariances_are_let_go_before_the_pass(tmp_path, monkeypatch):
+    # the achievable pass runs after the edit table and the row accounting, on results whose
+    # per-epoch covariances, residuals and explained variances are gone: a long sortie never
+    # holds them beside the pass's filter history (the products stage's peak)
     cfg = simulate_scenario(tmp_path, seed=2, duration=40.0, sensors="R1,G1")
-    smoothed: list[weakref.ref] = []
-    seen: list[tuple[int, int]] = []        # at each unpack: passes run, their arrays alive
-    rts, unpack = ach.rts_smooth, products.unpack_many
+    fused: list[weakref.ref] = []
+    seen: list[int] = []                # at each pass: the fusion's arrays still alive
+    settle, achievable = pipeline.settle, products.achievable_sigma
 
-    def watched_rts(*args):
-        out = rts(*args)
-        smoothed.append(weakref.ref(out[1]))
+    def watched_settle(*args, **kwargs):
+        out = settle(*args, **kwargs)
+        fused.extend(weakref.ref(a) for _, r in out[0] for a in (r.Ps, r.res, r.hph))
         return out
 
-    def watched_unpack(*args):
-        seen.append((len(smoothed), sum(r() is not None for r in smoothed)))
-        return unpack(*args)
+    def watched(result):
+        seen.append(sum(r() is not None for r in fused))
+        assert result.Ps.size == 0
+        return achievable(result)
 
-    monkeypatch.setattr(ach, "rts_smooth", watched_rts)
-    monkeypatch.setattr(products, "unpack_many", watched_unpack)
-    assert run(cfg).tracks
-    assert seen and all(n >= 1 for n, _ in seen)        # the pass ran first ...
-    assert [alive for _, alive in seen] == [0] * len(seen)   # ... and was let go
+    monkeypatch.setattr(pipeline, "settle", watched_settle)
+    monkeypatch.setattr(products, "achievable_sigma", watched)
+    tracks = run(cfg).tracks
+    assert fused and seen == [0] * len(tracks)
+    assert all(np.isfinite(tr.achievable).any() for tr in tracks)
 
 
 @pytest.mark.parametrize("max_rows", [ach.MAX_ROWS, 600])
@@ -109,3 +118,32 @@ def test_the_filter_gets_only_the_columns_it_reads(tmp_path, monkeypatch, max_ro
         assert not any(shared) and len(rows.z) < len(batch)
         assert {len(a) for a in (rows.model, rows.z, rows.sigma, rows.sv, rows.sensor)} == \
             {len(rows.meas_epoch)}
+
+
+def test_the_late_column_is_the_one_made_with_the_track():
+    # GPS rows with a gap (two spans, bridged) whose last 20 s are another object's (left
+    # unwritten): the column filled after the products equals the one track_estimate makes,
+    # and epochs added at the left-out times (as fusion.formation extends a track) stay NaN
+    rng = np.random.default_rng(6)
+    t_rows = np.arange(0.0, 80.0, 0.5)
+    t_rows = t_rows[(t_rows < 20.0) | (t_rows >= 32.0)]
+    batch = gps_line_batch(t_rows, rng, noise=2.0, sigma=2.0)
+    other = t_rows >= 60.0
+    batch.z[other, 0] += 3_000.0 + 40.0 * (t_rows[other] - 60.0)
+    split = EstimatorSettings()
+    split = replace(split, processing=replace(split.processing, max_gap=5.0))
+    result = fuse_target(batch, 5.0, split)
+    frame = RangeFrame(Geodetic(lat=45.0, lon=10.0, height=0.0))
+    kw = dict(stated=np.array([[2.0, 2.0, 2.0]]), max_bridge=60.0)
+    made = track_estimate("O1", result, frame, 5.0, **kw)
+    late = products.with_achievable_sigma(
+        track_estimate("O1", result, frame, 5.0, with_achievable=False, **kw), result)
+    assert len(result.spans) == 2 and made.unwritten
+    assert np.isnan(made.achievable).all(axis=1).any()          # the bridged epochs
+    assert np.array_equal(late.achievable, made.achievable, equal_nan=True)
+    grid_t = result.epoch_t[result.grid]
+    extra = grid_t[grid_t > made.time[-1]]                       # the left-out epochs
+    extended = replace(made, time=np.r_[made.time, extra], achievable=None)
+    filled = products.with_achievable_sigma(extended, result).achievable
+    assert extra.size and np.isnan(filled[made.time.size:]).all()
+    assert np.array_equal(filled[:made.time.size], made.achievable, equal_nan=True)
