@@ -176,6 +176,17 @@ MANOEUVRE_PSD = 1200.0
 #: ``MANOEUVRE_FLOOR`` at rest (a 1 m/s^2 manoeuvre over a few seconds).
 MANOEUVRE_SPEED = 250.0
 MANOEUVRE_FLOOR = 4.0
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def speed_manoeuvre_psd(speed, var_v):
+    """The manoeuvre model's white-acceleration PSD ((m/s^2)^2/s) for an object of speed
+    ``speed`` (m/s) whose velocity has the mean per-axis variance ``var_v`` (m^2/s^2): the
+    one definition (:func:`manoeuvre_psd`), compiled where one state is scored
+    (``tracking.score``), over arrays through ``py_func`` (scalars or arrays of one shape)."""
+    bound = speed + 3.0 * np.sqrt(np.maximum(var_v, 0.0))
+    return np.minimum(np.maximum(MANOEUVRE_PSD * (bound / MANOEUVRE_SPEED) ** 2,
+                                 MANOEUVRE_FLOOR), MANOEUVRE_PSD)
+
+
 def manoeuvre_psd(v: np.ndarray, Pv: np.ndarray) -> np.ndarray:
     """(K,) white-acceleration PSD ((m/s^2)^2/s) of the IMM's manoeuvre model for tracks of
     velocity v (K, 3) m/s with covariance Pv (K, 3, 3): a manoeuvre is a turn, whose
@@ -183,8 +194,7 @@ def manoeuvre_psd(v: np.ndarray, Pv: np.ndarray) -> np.ndarray:
     speed (taken at its upper bound, |v| + 3 sigma): ``MANOEUVRE_PSD`` (a 6 g turn) at
     ``MANOEUVRE_SPEED`` and above, down to ``MANOEUVRE_FLOOR`` for an object at rest. A boat
     at 4 m/s turns at most a few tenths of a g; a model that lets it leap a fighter's 480 m
-    between two scans takes the sea clutter of every missed scan into its track."""
-    sigma_v = np.sqrt(np.maximum(np.einsum("kii->k", Pv) / 3.0, 0.0))
-    speed = np.linalg.norm(v, axis=-1) + 3.0 * sigma_v
-    return np.clip(MANOEUVRE_PSD * (speed / MANOEUVRE_SPEED) ** 2, MANOEUVRE_FLOOR,
-                   MANOEUVRE_PSD)
+    between two scans takes the sea clutter of every missed scan into its track
+    (:func:`speed_manoeuvre_psd`)."""
+    return speed_manoeuvre_psd.py_func(np.linalg.norm(v, axis=-1),
+                                       np.einsum("kii->k", Pv) / 3.0)

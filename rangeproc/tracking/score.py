@@ -36,12 +36,7 @@ from rangeproc.estimation.kernels import add_q, left_f, predict_state, right_f_t
 from rangeproc.estimation.linalg import chol_solve_inplace, cholesky_inplace
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH, N_COMPONENTS, SPHERICAL, measure, wrap_angle
-from rangeproc.models.motion import (
-    MANOEUVRE_FLOOR,
-    MANOEUVRE_PSD,
-    MANOEUVRE_SPEED,
-    white_acceleration_q,
-)
+from rangeproc.models.motion import speed_manoeuvre_psd, white_acceleration_q
 
 #: Leading state columns a measurement Jacobian can be non-zero in (position, velocity;
 #: ``models.measurement.measure``).
@@ -95,10 +90,8 @@ def _add_manoeuvre(x: np.ndarray, Pe: np.ndarray, P: np.ndarray, dt: float) -> N
     manoeuvre the object's speed allows (``models.motion.manoeuvre_psd`` of that state; the
     bridge's gap noise, ``fusion.bridge``): the trajectory's own process noise says how the
     object moved while seen, nothing says it kept to that while unseen."""
-    var_v = (Pe[3, 3] + Pe[4, 4] + Pe[5, 5]) / 3.0
-    speed = math.sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]) + 3.0 * math.sqrt(max(var_v, 0.0))
-    qm = min(max(MANOEUVRE_PSD * (speed / MANOEUVRE_SPEED) ** 2, MANOEUVRE_FLOOR),
-             MANOEUVRE_PSD)
+    qm = speed_manoeuvre_psd(math.sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]),
+                             (Pe[3, 3] + Pe[4, 4] + Pe[5, 5]) / 3.0)
     q00, q01, q11 = white_acceleration_q(abs(dt), qm)
     if dt < 0.0:
         q01 = -q01
