@@ -47,10 +47,16 @@ def unpack_n(p: np.ndarray, out: np.ndarray, n: int) -> None:
             k += 1
 
 
+def diagonal_entries(first: int, count: int) -> tuple[int, ...]:
+    """The packed entries (:func:`pack`: diagonal ``i`` at ``i (i + 3) / 2``) of the
+    variances ``P[i, i]``, ``i = first .. first + count - 1``."""
+    return tuple(i * (i + 3) // 2 for i in range(first, first + count))
+
+
 def packed_diagonal(Ps: np.ndarray, first: int, count: int) -> np.ndarray:
     """(K, count) the variances ``P[i, i]``, ``i = first .. first + count - 1``, of packed
-    covariances ``Ps`` (K, n(n+1)/2) (:func:`pack`: diagonal ``i`` at ``i (i + 3) / 2``)."""
-    return np.asarray(Ps)[:, [i * (i + 3) // 2 for i in range(first, first + count)]]
+    covariances ``Ps`` (K, n(n+1)/2) (:func:`diagonal_entries`)."""
+    return np.asarray(Ps)[:, list(diagonal_entries(first, count))]
 
 
 def unpack_many(Ps: np.ndarray, n: int, m: int | None = None) -> np.ndarray:

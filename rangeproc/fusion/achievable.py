@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from rangeproc.estimation.forward import FilterPrior, FilterRows, FilterSettings, run_filter
+from rangeproc.estimation.linalg import diagonal_entries
 from rangeproc.estimation.rts import rts_smooth
 from rangeproc.fusion.estimator_types import FusionResult
 from rangeproc.fusion.registration import spans_calibration_covariance
@@ -37,8 +38,8 @@ LEAST_RATE_HZ = 5.0
 #: The pass's starting covariance (diagonal: m^2, (m/s)^2, (m/s^2)^2): wide, as a run's
 #: own start from its first fixes.
 P0_DIAG = np.repeat([1e4, 1e2, 1e1], 3)
-#: The packed entries (``estimation.linalg.pack``) of the position variances P[i, i], i < 3.
-POSITION_VARIANCES = tuple(i * (i + 3) // 2 for i in range(3))
+#: The packed entries of the position variances P[i, i], i < 3.
+POSITION_VARIANCES = diagonal_entries(0, 3)
 
 
 def _row_sigma(result: FusionResult) -> np.ndarray:
