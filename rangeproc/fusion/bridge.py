@@ -40,13 +40,6 @@ def ca_transition(dt: np.ndarray) -> np.ndarray:
     return axes_blocks(ca_steps(np.atleast_1d(np.asarray(dt, dtype=float)))[0])
 
 
-def ca_noise(dt: np.ndarray, q: float) -> np.ndarray:
-    """(M, 9, 9) white-jerk process noise over ``|dt|`` (M,) s with PSD ``q`` (m^2/s^5)
-    (``models.motion.ca_steps``)."""
-    a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
-    return axes_blocks(ca_steps(a, q)[1])
-
-
 def _manoeuvre_blocks(a: np.ndarray, q: float) -> np.ndarray:
     """(M, 3, 3) per-axis white-acceleration noise of position and velocity over ``a`` (M,)
     s >= 0 with PSD ``q`` ((m/s^2)^2/s) (``models.motion.white_acceleration_q``; the
@@ -57,17 +50,10 @@ def _manoeuvre_blocks(a: np.ndarray, q: float) -> np.ndarray:
     return B
 
 
-def manoeuvre_noise(dt: np.ndarray, q: float) -> np.ndarray:
-    """(M, 9, 9) white-acceleration noise of position and velocity over ``|dt|`` (M,) s
-    with PSD ``q`` ((m/s^2)^2/s) (:func:`_manoeuvre_blocks` on every axis)."""
-    return axes_blocks(_manoeuvre_blocks(np.abs(np.atleast_1d(np.asarray(dt, dtype=float))),
-                                         q))
-
-
 def gap_noise(dt: np.ndarray, q: float, qm: float) -> np.ndarray:
     """(M, 9, 9) the bridge's process noise over ``|dt|`` (M,) s: white jerk of PSD ``q``
     (m^2/s^5) plus the manoeuvre's white acceleration of PSD ``qm`` ((m/s^2)^2/s), summed per
-    axis and spread over the axes once (the same values as ``ca_noise + manoeuvre_noise``)."""
+    axis and spread over the axes once (``models.motion.ca_steps``, :func:`_manoeuvre_blocks`)."""
     a = np.abs(np.atleast_1d(np.asarray(dt, dtype=float)))
     return axes_blocks(ca_steps(a, q)[1] + _manoeuvre_blocks(a, qm))
 

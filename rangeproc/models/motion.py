@@ -176,6 +176,8 @@ MANOEUVRE_PSD = 1200.0
 #: ``MANOEUVRE_FLOOR`` at rest (a 1 m/s^2 manoeuvre over a few seconds).
 MANOEUVRE_SPEED = 250.0
 MANOEUVRE_FLOOR = 4.0
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def speed_manoeuvre_psd(speed, var_v):
     """The manoeuvre model's white-acceleration PSD ((m/s^2)^2/s) for an object of speed

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rangeproc.fusion.bridge import bridge_gaps, ca_noise, ca_transition, manoeuvre_noise
+from rangeproc.fusion.bridge import bridge_gaps, ca_transition
 from rangeproc.models.motion import MANOEUVRE_FLOOR, MANOEUVRE_PSD, manoeuvre_psd
 
 filterpy = pytest.importorskip("filterpy")
@@ -15,6 +15,21 @@ from filterpy.kalman import KalmanFilter  # noqa: E402
 def random_cov(rng, scale):
     a = rng.normal(size=(9, 9)) * scale
     return a @ a.T + np.eye(9) * scale ** 2
+
+
+def _gap_q(dt: float, q: float, qm: float) -> np.ndarray:
+    """(9, 9) the gap's process noise written out (state [p, v, a] per axis blocks): the
+    continuous white-jerk noise of PSD q on position, velocity and acceleration, plus the
+    white-acceleration noise of PSD qm on position and velocity."""
+    jerk = q * np.array([[dt ** 5 / 20, dt ** 4 / 8, dt ** 3 / 6],
+                         [dt ** 4 / 8, dt ** 3 / 3, dt ** 2 / 2],
+                         [dt ** 3 / 6, dt ** 2 / 2, dt]])
+    jerk[:2, :2] += qm * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]])
+    Q = np.zeros((9, 9))
+    for k in range(3):
+        idx = [k, 3 + k, 6 + k]
+        Q[np.ix_(idx, idx)] = jerk
+    return Q
 
 
 def test_the_fit_equals_filterpy_rts_with_the_ends_as_measurements() -> None:
@@ -44,8 +59,7 @@ def test_the_fit_equals_filterpy_rts_with_the_ends_as_measurements() -> None:
     prev = ta
     for ti in steps:
         kf.F = ca_transition(np.array([ti - prev]))[0]
-        kf.Q = ca_noise(np.array([ti - prev]), q)[0] + manoeuvre_noise(np.array([ti - prev]),
-                                                                         qm)[0]
+        kf.Q = _gap_q(ti - prev, q, qm)
         kf.predict()
         if np.isclose(ti, tb):
             kf.update(xb)
