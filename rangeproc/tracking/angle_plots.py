@@ -14,7 +14,10 @@ object is detected at most once per frame, a detection goes to at most one objec
 sight carries no range, so a detection is taken only where it is unambiguous: its
 log-likelihood ratio under the best object exceeds that under any other by
 ``AMBIGUITY_NATS`` (two boats a few degrees apart seen from one camera give no detection to
-either, rather than half of them to the wrong one), and only to an object already known
+either, rather than half of them to the wrong one), not in a stretch where the object's line
+of sight is shared by something no object holds (:func:`clear_in_frame`: a moored boat behind
+a passing one gives, frame after frame, a second detection nearly as likely under the boat,
+and in the frames that miss the boat the only one), and only to an object already known
 across the line of sight (:func:`localised`: its own bearing sigma, from its position
 covariance, within ``LOCALISED_SIGMAS`` of the detection's): a line of sight refines where
 an object is, it cannot say where an object nobody ranged has gone (an object carried beyond
@@ -52,6 +55,13 @@ ELEVATION = 2
 AMBIGUITY_NATS = float(np.log(100.0))
 #: A detection may go to an object whose bearing sigma is at most this many of its own.
 LOCALISED_SIGMAS = 3.0
+#: An object's line of sight is shared (:func:`clear_in_frame`) where at least this share of
+#: the frames within this many seconds that its gate holds a detection in hold two nearly
+#: equally likely ones: a camera at 5-10 frames a second gives 10-20 frames in such a
+#: window, a boat passing a moored one stays on its bearing for seconds, and clutter of a few
+#: detections a frame falls in a 1-degree object's gate in a few per cent of them.
+SHARED_SIGHT_WINDOW_S = 1.0
+SHARED_SIGHT_SHARE = 0.5
 
 
 def localised(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack) -> np.ndarray:
@@ -106,4 +116,41 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
         with np.errstate(invalid="ignore"):
             clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
         llr[~clear] = -np.inf
+    llr[~clear_in_frame(llr, frame, np.unique(batch.t[rows]))] = -np.inf  # ... nor a shared sight
     return assign_per_scan(llr, frame)
+
+
+def clear_in_frame(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray,
+                   window: float = SHARED_SIGHT_WINDOW_S,
+                   share: float = SHARED_SIGHT_SHARE) -> np.ndarray:
+    """(P, J) bool: for each object (column of ``llr`` (P, J), -inf outside its gate), False
+    for the detections of the frames (``frame`` (P,), frame times ``frame_t`` (F,) s) in a
+    stretch where its line of sight is shared: at least ``share`` of the frames within
+    ``window`` s in which its gate holds a detection hold a second one nearly as likely
+    (within ``AMBIGUITY_NATS`` of the frame's best) under it. Such a stretch holds two
+    things on one bearing (a moored boat behind a passing one), and the object takes none
+    of its detections: where both are seen it cannot tell which is its own, and where the
+    camera misses it the one left is the other's. A lone clutter detection near the object
+    makes no stretch."""
+    out = np.ones(llr.shape, dtype=bool)
+    for j in range(llr.shape[1]):
+        col = llr[:, j]
+        gated = np.flatnonzero(np.isfinite(col))
+        if gated.size < 2:
+            continue
+        order = gated[np.lexsort((-col[gated], frame[gated]))]
+        f = frame[order]
+        head = np.r_[True, f[1:] != f[:-1]]                     # each frame's best
+        second = np.flatnonzero(~head & np.r_[False, head[:-1]])  # ... and runner-up
+        close = col[order[second - 1]] - col[order[second]] < AMBIGUITY_NATS
+        two = np.zeros(frame_t.size, dtype=bool)
+        two[f[second[close]]] = True
+        seen = np.unique(f)
+        ts = frame_t[seen]
+        n_two = np.r_[0, np.cumsum(two[seen])]
+        lo = np.searchsorted(ts, ts - window, "left")
+        hi = np.searchsorted(ts, ts + window, "right")
+        bad = np.zeros(frame_t.size, dtype=bool)
+        bad[seen] = (n_two[hi] - n_two[lo]) >= share * (hi - lo)
+        out[bad[frame], j] = False
+    return out
