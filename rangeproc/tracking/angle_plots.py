@@ -105,7 +105,8 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
     sensor's ``batch`` goes to, -1 for none (module docstring)."""
     if rows.size == 0 or not tracks:
         return np.full(rows.size, -1, dtype=np.int64)
-    frame = np.unique(batch.t[rows], return_inverse=True)[1].astype(np.int64).ravel()
+    frame_t, frame = np.unique(batch.t[rows], return_inverse=True)
+    frame = frame.astype(np.int64).ravel()
     floor = angle_clutter_floor(batch, rows, frame)
     llr = plot_llr(batch, rows, tracks, frame, None, floor, margin=0.0)   # inside the span
     for j, track in enumerate(tracks):
@@ -116,7 +117,7 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
         with np.errstate(invalid="ignore"):
             clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
         llr[~clear] = -np.inf
-    llr[~clear_in_frame(llr, frame, np.unique(batch.t[rows]))] = -np.inf  # ... nor a shared sight
+    llr[~clear_in_frame(llr, frame, frame_t)] = -np.inf      # ... nor a shared sight
     return assign_per_scan(llr, frame)
 
 
