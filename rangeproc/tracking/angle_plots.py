@@ -14,9 +14,9 @@ object is detected at most once per frame, a detection goes to at most one objec
 sight carries no range, so a detection is taken only where it is unambiguous: its
 log-likelihood ratio under the best object exceeds that under any other by
 ``AMBIGUITY_NATS`` (two boats a few degrees apart seen from one camera give no detection to
-either, rather than half of them to the wrong one), not in a stretch where the object's line
-of sight is shared by something no object holds (:func:`clear_in_frame`: a moored boat behind
-a passing one gives, frame after frame, a second detection nearly as likely under the boat,
+either, rather than half of them to the wrong one), not where the object's line of sight is
+shared by something no object holds (:func:`outside_shared_sight`: a moored boat behind a
+passing one gives, frame after frame, a second detection nearly as likely under the boat,
 and in the frames that miss the boat the only one), and only to an object already known
 across the line of sight (:func:`localised`: its own bearing sigma, from its position
 covariance, within ``LOCALISED_SIGMAS`` of the detection's): a line of sight refines where
@@ -55,9 +55,9 @@ ELEVATION = 2
 AMBIGUITY_NATS = float(np.log(100.0))
 #: A detection may go to an object whose bearing sigma is at most this many of its own.
 LOCALISED_SIGMAS = 3.0
-#: An object's line of sight is shared (:func:`clear_in_frame`) where at least this share of
-#: the frames within this many seconds that its gate holds a detection in hold two nearly
-#: equally likely ones: a camera at 5-10 frames a second gives 10-20 frames in such a
+#: An object's line of sight is shared (:func:`outside_shared_sight`) where at least this
+#: share of the frames within this many seconds that its gate holds a detection in hold two
+#: nearly equally likely ones: a camera at 5-10 frames a second gives 10-20 frames in such a
 #: window, a boat passing a moored one stays on its bearing for seconds, and clutter of a few
 #: detections a frame falls in a 1-degree object's gate in a few per cent of them.
 SHARED_SIGHT_WINDOW_S = 1.0
@@ -117,13 +117,13 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
         with np.errstate(invalid="ignore"):
             clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
         llr[~clear] = -np.inf
-    llr[~clear_in_frame(llr, frame, frame_t)] = -np.inf      # ... nor a shared sight
+    llr[~outside_shared_sight(llr, frame, frame_t)] = -np.inf     # ... nor a shared sight
     return assign_per_scan(llr, frame)
 
 
-def clear_in_frame(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray,
-                   window: float = SHARED_SIGHT_WINDOW_S,
-                   share: float = SHARED_SIGHT_SHARE) -> np.ndarray:
+def outside_shared_sight(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray,
+                         window: float = SHARED_SIGHT_WINDOW_S,
+                         share: float = SHARED_SIGHT_SHARE) -> np.ndarray:
     """(P, J) bool: for each object (column of ``llr`` (P, J), -inf outside its gate), False
     for the detections of the frames (``frame`` (P,), frame times ``frame_t`` (F,) s) in a
     stretch where its line of sight is shared: at least ``share`` of the frames within
