@@ -19,12 +19,29 @@ shared by something no object holds (:func:`outside_shared_sight`: a moored boat
 passing one gives, frame after frame, a second detection nearly as likely under the boat,
 and in the frames that miss the boat the only one), and only to an object already known
 across the line of sight (:func:`localised`: its own bearing sigma, from its position
-covariance, within ``LOCALISED_SIGMAS`` of the detection's): a line of sight refines where
-an object is, it cannot say where an object nobody ranged has gone (an object carried beyond
-its rows gates every detection in a wide sector). For the same reason a detection is taken
-only within the span of the object's other rows, never before its first or after its last:
-seconds of bearings at tens of hertz ahead of the first ranged row let the forward filter
-run off along the line of sight before any range arrives.
+covariance carried to the detection's time, within ``LOCALISED_SIGMAS`` of the
+detection's): a line of sight refines where an object is, it cannot say where an object
+nobody ranged has gone.
+
+Beyond the span of the object's other rows (before its first, after its last) a camera
+often sees the object for seconds more: a boat lying still at the start, its radar plots
+too few after missed scans to confirm a track, is in the camera's frames throughout. There
+the object is carried from its end state with the gap noise (``tracking.score``: its
+trajectory's white-jerk noise and the manoeuvre its speed allows), and the detections that
+pass every test above (gate, clutter floor, one object standing out, no shared sight,
+localised) are its own while they *continue* its span: outward from the span's end, no gap
+between consecutive ones longer than ``CONTINUE_GAP_S``, and not beyond the point where the
+carried object is no longer localised, which bounds the reach by the object's own growing
+uncertainty (:func:`continuing`). A stray detection seconds beyond the span, with none
+between, is not the object's. Fused, such rows before the first position fix are the span's
+lead-in: longer than ``fusion.lead_in.LEAD_IN_S`` it is estimated backwards from the fix, so
+that bearings at tens of hertz cannot pull the forward start along the line of sight;
+shorter, the forward start is the first fixes' fit carried back over it. (A fixed 2 s margin
+before every span once gave every object such rows whether they continued it or not; on
+Autoferry scenario 13 the process-noise search then ran to 1e5. A run that continues the
+span, as here, starts that scenario's boat 3.4 s earlier, 10-15 m off, inside 3 sigma.)
+These rows widen no span for step 5 (``tracking.synthesis``): bearings alone know the ends
+across the line of sight, not along it.
 
 A detection must also be likelier the object's than clutter (:func:`angle_clutter_floor`):
 the sensor's own clutter density is its detections per frame over the azimuth sector (and
@@ -41,11 +58,17 @@ import numpy as np
 
 from rangeproc.fusion.batch import MeasurementBatch
 from rangeproc.models.measurement import AZIMUTH
-from rangeproc.tracking.plot_association import assign_per_scan, azimuth_sector, plot_llr
+from rangeproc.tracking.plot_association import (
+    EXTEND_SECONDS,
+    assign_per_scan,
+    azimuth_sector,
+    plot_llr,
+)
 from rangeproc.tracking.score import (
     EXTENT_SPHERICAL,
     OUTLIER_PROBABILITY,
     ObjectTrack,
+    innovation_variance,
     mixture_llr,
 )
 
@@ -62,19 +85,21 @@ LOCALISED_SIGMAS = 3.0
 #: detections a frame falls in a 1-degree object's gate in a few per cent of them.
 SHARED_SIGHT_WINDOW_S = 1.0
 SHARED_SIGHT_SHARE = 0.5
+#: Beyond an object's span its detections continue it while none is more than this many
+#: seconds after the one before (:func:`continuing`): a camera at 5-10 frames a second that
+#: misses its object in a few frames running; a longer silence ends the run.
+CONTINUE_GAP_S = 1.0
 
 
 def localised(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack) -> np.ndarray:
-    """(P,) bool: the object ``track``, at its epoch nearest each row of ``rows`` (P,), is
-    known across the row's line of sight to within ``LOCALISED_SIGMAS`` of the row's
-    azimuth sigma: the horizontal position variance across the line of sight from the
-    sensor (``batch.s``), over the squared horizontal range."""
-    k = np.clip(np.searchsorted(track.t, batch.t[rows]), 0, track.t.size - 1)
-    d = track.x[k, :2] - batch.s[rows, :2]                              # (P, 2) m
-    rng = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-3)
-    across = np.column_stack([-d[:, 1], d[:, 0]]) / rng[:, None]
-    var = np.einsum("pi,pij,pj->p", across, track.P[k, :2, :2], across)
-    return np.sqrt(np.maximum(var, 0.0)) / rng <= LOCALISED_SIGMAS * batch.sigma[rows, AZIMUTH]
+    """(P,) bool: the object ``track``, carried to each row of ``rows`` (P,) as it is
+    scored (``tracking.score``; beyond its span with the gap noise), is known across the
+    row's line of sight to within ``LOCALISED_SIGMAS`` of the row's azimuth sigma: the
+    predicted azimuth's innovation variance less the row's stated variance, ``S - R``, at
+    most ``LOCALISED_SIGMAS^2 R`` (rad^2). False where S is not defined."""
+    S = innovation_variance(batch, rows, track, AZIMUTH)
+    R = batch.sigma[rows, AZIMUTH] ** 2
+    return S - R <= LOCALISED_SIGMAS ** 2 * R
 
 
 def angle_clutter_floor(batch: MeasurementBatch, rows: np.ndarray, frame: np.ndarray
@@ -108,17 +133,37 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
     frame_t, frame = np.unique(batch.t[rows], return_inverse=True)
     frame = frame.astype(np.int64).ravel()
     floor = angle_clutter_floor(batch, rows, frame)
-    llr = plot_llr(batch, rows, tracks, frame, None, floor, margin=0.0)   # inside the span
+    llr = plot_llr(batch, rows, tracks, frame, None, floor, margin=EXTEND_SECONDS)
     for j, track in enumerate(tracks):
         if track is not None and track.t.size:
-            llr[~localised(batch, rows, track), j] = -np.inf
+            scored = np.flatnonzero(np.isfinite(llr[:, j]))
+            llr[scored[~localised(batch, rows[scored], track)], j] = -np.inf
     if llr.shape[1] > 1:                      # only where one object stands out
         top2 = -np.sort(-llr, axis=1)[:, :2]
         with np.errstate(invalid="ignore"):
             clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
         llr[~clear] = -np.inf
     llr[~outside_shared_sight(llr, frame, frame_t)] = -np.inf     # ... nor a shared sight
-    return assign_per_scan(llr, frame)
+    return continuing(assign_per_scan(llr, frame), batch.t[rows], tracks)
+
+
+def continuing(owner: np.ndarray, t: np.ndarray, tracks: Sequence[ObjectTrack | None]
+               ) -> np.ndarray:
+    """``owner`` (P,) (index into ``tracks``, -1 none) with each object's detections beyond
+    its span (times ``t`` (P,) s) kept only while they continue it: outward from the span's
+    end, each within ``CONTINUE_GAP_S`` of the one before (the first of the span's end)."""
+    out = owner.copy()
+    for j, track in enumerate(tracks):
+        mine = np.flatnonzero(owner == j)
+        if track is None or track.t.size == 0 or mine.size == 0:
+            continue
+        for side, edge in ((t[mine] < track.t[0], float(track.t[0])),
+                           (t[mine] > track.t[-1], float(track.t[-1]))):
+            part = mine[side]
+            part = part[np.argsort(np.abs(t[part] - edge), kind="stable")]
+            reach = np.abs(np.diff(np.concatenate([[edge], t[part]])))
+            out[part[~np.cumprod(reach <= CONTINUE_GAP_S).astype(bool)]] = -1
+    return out
 
 
 def outside_shared_sight(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray,

@@ -336,6 +336,21 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
     return xd, Pd, ok
 
 
+def innovation_variance(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
+                        component: int) -> np.ndarray:
+    """(M,) the variance of ``component``'s innovation, ``S = H P Hᵀ + R`` (its unit
+    squared), of each of ``batch`` rows ``rows`` (M,) against ``track``, carried as
+    :func:`score_rows` carries it (beyond the span with the gap noise); NaN where the row
+    does not measure the component or S is not positive definite."""
+    sel = np.asarray(rows, dtype=np.int64)
+    _, L, m_rows, idx, ok, _, _ = _geometry(batch, sel, track)
+    out = np.full(sel.size, np.nan)
+    for a in range(idx.shape[1]):
+        at = ok & (idx[:, a] == component) & (a < m_rows)
+        out[at] = np.einsum("nk,nk->n", L[at, a, :a + 1], L[at, a, :a + 1])
+    return out
+
+
 def score_rows(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,
                offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(residual (M, 6), NIS (M,), llr (M,)) of ``batch`` rows ``rows`` against ``track``."""

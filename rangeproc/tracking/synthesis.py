@@ -44,8 +44,9 @@
    range and without ``track_id`` go, frame by frame, to the object whose line of sight they
    fit, where that object is already known across it and no other object fits nearly as
    well (their own clutter floor: the sensor's detections per frame over the sector they
-   span); the share used is in the summary. Where an object's rows now reach beyond its
-   trajectory (these, or a segment that joined in step 3's last round, which ends without
+   span); the share used is in the summary; beyond an object's span, those that continue
+   it while it stays known across the line of sight. Where an object's ranged rows reach
+   beyond its trajectory (a segment that joined in step 3's last round, which ends without
    re-estimating), the object is re-estimated and step 5 runs again (a plot after missed
    scans that the object's other rows carry it to is scored against it).
 7. What is left is unassigned, with the reason.
@@ -355,7 +356,7 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
     # an object whose every plot went elsewhere (or nowhere) in step 5 is no object
     discovered = [k for k in discovered if objects.members.get(k)]
     angle_owner = _associate_angle_plots(objects, [*anchored, *discovered], angle_plots)
-    if _widen_spans(objects, [*anchored, *discovered]):   # step 5 again where angle plots
+    if _widen_spans(objects, [*anchored, *discovered], angle_plots):   # step 5 again
         step5 = reassociate_plots(objects, [*anchored, *discovered], final, clutter, timings)
         discovered = [k for k in discovered if objects.members.get(k)]
     names = _name_objects(objects, declared, anchored, discovered)
@@ -411,21 +412,27 @@ def _associate_angle_plots(objects: Objects, keys: list[str],
     return out
 
 
-def _widen_spans(objects: Objects, keys: list[str]) -> list[str]:
-    """The objects of ``keys`` whose member rows after step 6 reach more than
-    ``SPAN_MARGIN_SECONDS`` beyond either end of their trajectory, re-estimated on all their
-    rows: step 5 then scores the plots of that widened span against them (a radar plot after
-    missed scans that only a theodolite or camera carries the object to). Rows lie beyond the
-    trajectory when step 6 gave the object angle-only plots there, or when a segment joined
-    it in the last round of :func:`_grow`, which ends without re-estimating (module
-    docstring, step 6)."""
+def _widen_spans(objects: Objects, keys: list[str],
+                 angle_plots: Mapping[int, np.ndarray]) -> list[str]:
+    """The objects of ``keys`` whose member rows after step 6, its angle-only plots
+    (``angle_plots``: sensor -> rows) left out, reach more than ``SPAN_MARGIN_SECONDS``
+    beyond either end of their trajectory, re-estimated on all their rows: step 5 then
+    scores the plots of that widened span against them (a radar plot after missed scans that
+    only a theodolite track carries the object to). Rows lie beyond the trajectory when a
+    segment joined it in the last round of :func:`_grow`, which ends without re-estimating
+    (module docstring, step 6). The camera detections by which step 6 continues an object
+    beyond its span widen nothing: carried by bearings alone, the span's ends are known
+    across the line of sight but hardly along it, and scored against them a radar's clutter
+    plot on the same bearing passes the gate (Autoferry scenario 22: plots at 310-340 m
+    taken by a boat at 190 m)."""
     grown = []
     for k in keys:
         track, members = objects.tracks.get(k), objects.members.get(k)
         if track is None or track.t.size == 0 or not members:
             continue
-        t = np.concatenate([objects.rows[i].t[sel] for i, sel in members])
-        if (t.min() < track.t[0] - SPAN_MARGIN_SECONDS
+        t = np.concatenate([objects.rows[i].t[sel[~np.isin(sel, angle_plots.get(i, []))]]
+                            for i, sel in members])
+        if t.size and (t.min() < track.t[0] - SPAN_MARGIN_SECONDS
                 or t.max() > track.t[-1] + SPAN_MARGIN_SECONDS):
             grown.append(k)
     tracks = thread_map(lambda k: objects.quick_track(objects.members[k], objects.priors.get(k)),

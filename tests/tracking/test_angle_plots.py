@@ -100,3 +100,80 @@ def test_no_detection_while_a_moored_boat_shares_the_objects_line_of_sight(plot_
         assert (owner[stretch & (truth == 1)] == 0).mean() <= 0.05
         away = np.abs(t - 20.0) > 6.0
         assert (owner[away & (truth == 0)] == 0).mean() >= 0.95
+
+
+def _seen_before_ranged(rng: np.random.Generator, seen_until: float = 12.0):
+    """A boat 300 m north of the camera, 1 m/s east, in the camera's frames (10 a second,
+    90 % detected, two clutter detections a frame) from 0 to 30 s but detected before
+    ``seen_until`` s only where the scene says; its object (the quick trajectory of its
+    ranged rows) spans 12-30 s: times, bearings, truth (0 the boat, -1 clutter), track."""
+    frames = np.arange(0.0, 30.0, 0.1)
+    boat = np.array([0.0, 300.0, 0.0]) + np.outer(frames, (1.0, 0.0, 0.0))
+    seen = (rng.random(frames.size) < 0.9) & ((frames >= seen_until) | (frames < 12.0))
+    clutter = _bearings(rng.uniform(-500, 500, (2 * frames.size, 3)) * [1, 1, 0])
+    t = np.concatenate([frames[seen], np.repeat(frames, 2)])
+    z = np.vstack([_bearings(boat[seen]), clutter])
+    truth = np.r_[np.zeros(seen.sum(), int), np.full(2 * frames.size, -1)]
+    z[:, 1] += rng.normal(0.0, SIG[1], t.size) * (truth >= 0)
+    order = np.argsort(t, kind="stable")
+    span = np.arange(12.0, 30.05, 0.2)
+    x = np.zeros((span.size, 9))
+    x[:, :3] = np.array([0.0, 300.0, 0.0]) + np.outer(span, (1.0, 0.0, 0.0))
+    x[:, 3] = 1.0
+    P = np.broadcast_to(np.diag([2.0**2] * 3 + [0.3**2] * 3 + [0.05**2] * 3),
+                        (span.size, 9, 9)).copy()
+    track = ObjectTrack(span, x, P, np.full(span.size, 0.01))
+    return t[order], z[order], truth[order], track
+
+
+def test_detections_before_the_span_continue_the_object_while_it_is_localised(plot_batch
+                                                                              ) -> None:
+    """Beyond its span the object is carried with the gap noise: the camera's detections
+    of the boat in the seconds before its ranged rows are its own (all but a few, in a run
+    from the span's start), clutter stays out, and the reach ends where the carried object
+    is no longer known across the line of sight to 3 of the detections' sigmas."""
+    from rangeproc.tracking.angle_plots import LOCALISED_SIGMAS, localised
+
+    for seed in (1, 2, 3):
+        t, z, truth, track = _seen_before_ranged(np.random.default_rng(seed))
+        batch = plot_batch(t, z, SIG)
+        owner = angle_owners(batch, np.arange(t.size), [track])
+        before = (t < 12.0) & (truth == 0)
+        near = before & (t >= 9.0)
+        assert (owner[near] == 0).mean() >= 0.9
+        assert (owner[truth == -1] == 0).mean() <= 0.01
+        lost = ~localised(batch, np.flatnonzero(before), track)
+        assert lost.any() and not (owner[np.flatnonzero(before)[lost]] == 0).any()
+        assert LOCALISED_SIGMAS == 3.0
+
+
+def test_a_stray_detection_beyond_the_span_does_not_continue_it(plot_batch) -> None:
+    """Detections of the boat only until 9 s, then none until its span at 12 s: a silence of
+    3 s, longer than ``CONTINUE_GAP_S``, so none before the silence is the object's, though
+    each passes its gate."""
+    from rangeproc.tracking.angle_plots import CONTINUE_GAP_S
+
+    t, z, truth, track = _seen_before_ranged(np.random.default_rng(4), seen_until=12.0)
+    keep = (t < 9.0) | (t >= 12.0) | (truth == -1)
+    t, z, truth = t[keep], z[keep], truth[keep]
+    owner = angle_owners(plot_batch(t, z, SIG), np.arange(t.size), [track])
+    assert 3.0 > CONTINUE_GAP_S
+    assert not (owner[t < 12.0] == 0).any()
+    assert (owner[(t >= 12.0) & (truth == 0)] == 0).mean() >= 0.95
+
+
+def test_innovation_variance_of_a_bearing_is_the_cross_sight_variance_over_range(plot_batch
+                                                                                ) -> None:
+    """``tracking.score.innovation_variance`` of a bearing at an epoch of the object: the
+    object's horizontal variance across the line of sight over the squared range, plus the
+    row's own variance (first-order azimuth Jacobian; the object 300 m north, its position
+    sigma 3 m east and 20 m north: across the sight 3 m)."""
+    from rangeproc.models.measurement import AZIMUTH
+    from rangeproc.tracking.score import innovation_variance
+
+    t = np.array([5.0])
+    track = _track((0.0, 300.0, 0.0), (0.0, 0.0, 0.0), np.arange(0.0, 10.05, 0.5), 3.0)
+    track.P[:, 1, 1] = 20.0 ** 2
+    batch = plot_batch(t, _bearings(np.array([[0.0, 300.0, 0.0]])), SIG)
+    S = innovation_variance(batch, np.array([0]), track, AZIMUTH)
+    np.testing.assert_allclose(S, 3.0 ** 2 / 300.0 ** 2 + SIG[1] ** 2, rtol=1e-6)
