@@ -4,7 +4,13 @@ slowly varying errors read as manoeuvre, the process-noise search asks for a pro
 that lets the first pass follow them and the track leaves the boat between the radar's plots.
 The first pass is run again with the cameras discounted (``fusion.centralised``,
 ``fusion.noise.correlation_factors``) and the boat is followed; the negative control keeps the
-white first pass and loses it."""
+white first pass and loses it.
+
+The cameras' detections are kept to the span of the radar's plots here
+(``tracking.angle_plots.CONTINUE_GAP_S`` = 0: no detection continues the boat beyond it), so
+that the span starts and ends on radar plots: continued by the cameras' bearings, this
+scene's span starts on them and the white first pass follows the boat as well (coverage
+1.00 either way), which would leave the negative control nothing to show."""
 from __future__ import annotations
 
 import json
@@ -14,11 +20,17 @@ import pytest
 from conftest import describe, invoke
 
 import rangeproc.fusion.centralised as centralised
+import rangeproc.tracking.angle_plots as angle_plots
 from rangeproc.evaluate.metrics import evaluate_run
 from rangeproc.simulate import simulate_multi
 
 SEED = 10                   # a harbour scene whose boat the white first pass loses
 CUTOFF = 20.0               # m: the evaluation's pairing distance
+
+
+@pytest.fixture(autouse=True)
+def _cameras_within_the_radar_span(monkeypatch):
+    monkeypatch.setattr(angle_plots, "CONTINUE_GAP_S", 0.0)
 
 
 @pytest.fixture(scope="module")
