@@ -62,6 +62,7 @@ from rangeproc.tracking.plot_association import (
     EXTEND_SECONDS,
     assign_per_scan,
     azimuth_sector,
+    continuing_run,
     plot_llr,
 )
 from rangeproc.tracking.score import (
@@ -151,18 +152,14 @@ def continuing(owner: np.ndarray, t: np.ndarray, tracks: Sequence[ObjectTrack | 
                ) -> np.ndarray:
     """``owner`` (P,) (index into ``tracks``, -1 none) with each object's detections beyond
     its span (times ``t`` (P,) s) kept only while they continue it: outward from the span's
-    end, each within ``CONTINUE_GAP_S`` of the one before (the first of the span's end)."""
+    end, each within ``CONTINUE_GAP_S`` of the one before (``continuing_run``)."""
     out = owner.copy()
     for j, track in enumerate(tracks):
         mine = np.flatnonzero(owner == j)
         if track is None or track.t.size == 0 or mine.size == 0:
             continue
-        for side, edge in ((t[mine] < track.t[0], float(track.t[0])),
-                           (t[mine] > track.t[-1], float(track.t[-1]))):
-            part = mine[side]
-            part = part[np.argsort(np.abs(t[part] - edge), kind="stable")]
-            reach = np.abs(np.diff(np.concatenate([[edge], t[part]])))
-            out[part[~np.cumprod(reach <= CONTINUE_GAP_S).astype(bool)]] = -1
+        inside = (t[mine] >= track.t[0]) & (t[mine] <= track.t[-1])
+        out[mine[~inside & ~continuing_run(t[mine], track.t, CONTINUE_GAP_S)]] = -1
     return out
 
 

@@ -215,16 +215,23 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
     won = assign_per_scan(llr, scan)
     for j, track in enumerate(tracks):
         mine = np.flatnonzero(won == j)
-        if mine.size == 0:
-            continue
-        for side, edge in ((t[mine] < track.t[0], float(track.t[0])),
-                           (t[mine] > track.t[-1], float(track.t[-1]))):
-            part = mine[side]
-            part = part[np.argsort(np.abs(t[part] - edge))]       # outward from the span
-            reach = np.abs(np.diff(np.concatenate([[edge], t[part]])))
-            run = np.cumprod(reach <= EXTEND_GAP_SCANS * revisit).astype(bool)
-            out[part[run]] = j
+        if mine.size:
+            out[mine[continuing_run(t[mine], track.t, EXTEND_GAP_SCANS * revisit)]] = j
     return out
+
+
+def continuing_run(t: np.ndarray, span: np.ndarray, max_gap: float) -> np.ndarray:
+    """(K,) bool: which of the times ``t`` (K,) s outside ``span`` (its times, ascending)
+    continue it: outward from the span's nearer end, on either side, each within
+    ``max_gap`` (s) of the one before (the first of the end itself); times inside the span
+    are False."""
+    keep = np.zeros(t.size, dtype=bool)
+    for side, edge in ((t < span[0], float(span[0])), (t > span[-1], float(span[-1]))):
+        part = np.flatnonzero(side)
+        part = part[np.argsort(np.abs(t[part] - edge), kind="stable")]   # outward
+        reach = np.abs(np.diff(np.concatenate([[edge], t[part]])))
+        keep[part] = np.cumprod(reach <= max_gap).astype(bool)
+    return keep
 
 
 def own_plot_in_scan(plots: np.ndarray, scan: np.ndarray, mine: np.ndarray) -> np.ndarray:
