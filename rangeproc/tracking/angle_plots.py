@@ -36,12 +36,11 @@ uncertainty (:func:`continuing`). A stray detection seconds beyond the span, wit
 between, is not the object's. Fused, such rows before the first position fix are the span's
 lead-in: longer than ``fusion.lead_in.LEAD_IN_S`` it is estimated backwards from the fix, so
 that bearings at tens of hertz cannot pull the forward start along the line of sight;
-shorter, the forward start is the first fixes' fit carried back over it. (A fixed 2 s margin
-before every span once gave every object such rows whether they continued it or not; on
-Autoferry scenario 13 the process-noise search then ran to 1e5. A run that continues the
-span, as here, starts that scenario's boat 3.4 s earlier, 10-15 m off, inside 3 sigma.)
-These rows widen no span for step 5 (``tracking.synthesis``): bearings alone know the ends
-across the line of sight, not along it.
+shorter, the forward start is the first fixes' fit carried back over it. (A fixed margin
+before every span, which gives every object such rows whether they continue it or not, lets
+the process-noise search follow the bearings instead; measured cases in the methods page,
+several objects, section 6.) These rows widen no span for step 5 (``tracking.synthesis``):
+bearings alone know the ends across the line of sight, not along it.
 
 A detection must also be likelier the object's than clutter (:func:`angle_clutter_floor`):
 the sensor's own clutter density is its detections per frame over the azimuth sector (and

@@ -423,8 +423,8 @@ def _widen_spans(objects: Objects, keys: list[str],
     (module docstring, step 6). The camera detections by which step 6 continues an object
     beyond its span widen nothing: carried by bearings alone, the span's ends are known
     across the line of sight but hardly along it, and scored against them a radar's clutter
-    plot on the same bearing passes the gate (Autoferry scenario 22: plots at 310-340 m
-    taken by a boat at 190 m)."""
+    plot far along the same bearing passes the gate (measured cases in the methods page,
+    several objects, section 6)."""
     grown = []
     for k in keys:
         track, members = objects.tracks.get(k), objects.members.get(k)
