@@ -157,8 +157,7 @@ def continuing(owner: np.ndarray, t: np.ndarray, tracks: Sequence[ObjectTrack | 
         mine = np.flatnonzero(owner == j)
         if track is None or track.t.size == 0 or mine.size == 0:
             continue
-        inside = (t[mine] >= track.t[0]) & (t[mine] <= track.t[-1])
-        out[mine[~inside & ~continuing_run(t[mine], track.t, CONTINUE_GAP_S)]] = -1
+        out[mine[~continuing_run(t[mine], track.t, CONTINUE_GAP_S)]] = -1
     return out
 
 

@@ -221,11 +221,10 @@ def extend_objects(batch: MeasurementBatch, plots: np.ndarray,
 
 
 def continuing_run(t: np.ndarray, span: np.ndarray, max_gap: float) -> np.ndarray:
-    """(K,) bool: which of the times ``t`` (K,) s outside ``span`` (its times, ascending)
-    continue it: outward from the span's nearer end, on either side, each within
-    ``max_gap`` (s) of the one before (the first of the end itself); times inside the span
-    are False."""
-    keep = np.zeros(t.size, dtype=bool)
+    """(K,) bool: which of the times ``t`` (K,) s continue ``span`` (its times, ascending):
+    those inside it, and outside it outward from the nearer end, on either side, each within
+    ``max_gap`` (s) of the one before (the first of the end itself)."""
+    keep = (t >= span[0]) & (t <= span[-1])
     for side, edge in ((t < span[0], float(span[0])), (t > span[-1], float(span[-1]))):
         part = np.flatnonzero(side)
         part = part[np.argsort(np.abs(t[part] - edge), kind="stable")]   # outward
