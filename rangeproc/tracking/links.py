@@ -32,6 +32,10 @@ from rangeproc.tracking.score import segment_score
 #: at least ``MIN_SPLIT_ROWS`` scored rows (a lock that jumped without a visible step).
 SPLIT_GAIN = 50.0
 MIN_SPLIT_ROWS = 10
+#: A relay (a segment scored across objects' gaps) links to the object it fits best only
+#: when that fit beats every other object's by this many nats (100 : 1); where two objects'
+#: carried trajectories explain it nearly as well, the rows are evidence for neither.
+RELAY_MARGIN = float(np.log(100.0))
 
 
 def candidates(objects: Objects, seg: Segment, names: list[str], relay: bool
@@ -172,12 +176,25 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
                          for j, v in llr.items()
                          if v.sum() > 0.0 and known[j].any()
                          and (v[known[j]] > 0.0).mean() >= MIN_FIT_SHARE}
+            if relay:
+                seg_links = _decisive(seg_links)
             objects.link_cache[(seg.id, relay)] = (versions, seg_links)
         i = len(out)
         out.append(seg)
         for j, w in seg_links.items():
             links[(i, j)] = w
     return out, links
+
+
+def _decisive(seg_links: dict[int, float]) -> dict[int, float]:
+    """A relayed segment's links (object index -> score, nats): the best alone when it beats
+    the runner-up by ``RELAY_MARGIN``, none when another object fits nearly as well."""
+    if len(seg_links) < 2:
+        return seg_links
+    ranked = sorted(seg_links.items(), key=lambda kv: -kv[1])
+    if ranked[0][1] - ranked[1][1] < RELAY_MARGIN:
+        return {}
+    return dict(ranked[:1])
 
 
 def conflicts(pending: list[Segment]) -> list[tuple[int, int]]:
