@@ -65,6 +65,7 @@ from rangeproc.tracking.plot_association import (
     plot_llr,
 )
 from rangeproc.tracking.score import (
+    AMBIGUITY_NATS,
     EXTENT_SPHERICAL,
     OUTLIER_PROBABILITY,
     ObjectTrack,
@@ -73,9 +74,6 @@ from rangeproc.tracking.score import (
 )
 
 ELEVATION = 2
-#: A detection goes to its best object only when it is this many nats (log-likelihood ratio)
-#: likelier there than under any other object (a factor of 100).
-AMBIGUITY_NATS = float(np.log(100.0))
 #: A detection may go to an object whose bearing sigma is at most this many of its own.
 LOCALISED_SIGMAS = 3.0
 #: An object's line of sight is shared (:func:`outside_shared_sight`) where at least this

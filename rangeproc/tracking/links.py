@@ -26,16 +26,12 @@ from rangeproc.tracking.objects import (
     spread,
 )
 from rangeproc.tracking.relay import BRIDGE_SECONDS, MIN_FIT_SHARE, SCORED_ROWS
-from rangeproc.tracking.score import segment_score
+from rangeproc.tracking.score import AMBIGUITY_NATS, segment_score
 
 #: A segment is split in two when that gains more than this score (nats), each part holding
 #: at least ``MIN_SPLIT_ROWS`` scored rows (a lock that jumped without a visible step).
 SPLIT_GAIN = 50.0
 MIN_SPLIT_ROWS = 10
-#: A relay (a segment scored across objects' gaps) links to the object it fits best only
-#: when that fit beats every other object's by this many nats (100 : 1); where two objects'
-#: carried trajectories explain it nearly as well, the rows are evidence for neither.
-RELAY_MARGIN = float(np.log(100.0))
 
 
 def candidates(objects: Objects, seg: Segment, names: list[str], relay: bool
@@ -188,11 +184,11 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
 
 def _decisive(seg_links: dict[int, float]) -> dict[int, float]:
     """A relayed segment's links (object index -> score, nats): the best alone when it beats
-    the runner-up by ``RELAY_MARGIN``, none when another object fits nearly as well."""
+    the runner-up by ``AMBIGUITY_NATS``, none when another object fits nearly as well."""
     if len(seg_links) < 2:
         return seg_links
     ranked = sorted(seg_links.items(), key=lambda kv: -kv[1])
-    if ranked[0][1] - ranked[1][1] < RELAY_MARGIN:
+    if ranked[0][1] - ranked[1][1] < AMBIGUITY_NATS:
         return {}
     return dict(ranked[:1])
 

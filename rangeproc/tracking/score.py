@@ -43,6 +43,11 @@ from rangeproc.models.motion import speed_manoeuvre_psd, white_acceleration_q
 N_KINEMATIC_COLUMNS = 6
 #: Probability that a row of the object is an outlier (its cost is at most log of this).
 OUTLIER_PROBABILITY = 0.01
+#: Evidence that decides between objects: a row or segment goes to its best object only when
+#: it is this many nats (log-likelihood ratio) likelier there than under any other (a factor
+#: of 100; the cameras' angle-only plots, ``tracking.angle_plots``, and the relays,
+#: ``tracking.links``).
+AMBIGUITY_NATS = float(np.log(100.0))
 #: Extent per component of an unrelated measurement: spherical (range m, azimuth rad,
 #: elevation rad, range rate m/s), Cartesian (m per axis, m/s per axis).
 EXTENT_SPHERICAL = np.array([1.0e5, 2.0 * math.pi, 0.5 * math.pi, 2.0e3, 1.0, 1.0])
