@@ -5,19 +5,25 @@ A pending segment is scored against every object it overlaps in time (or comes w
 (``tracking.score.segment_score``), cached per object version and computed side by side in
 threads. A segment whose rows fit one object and then another is split where that gains
 more than ``SPLIT_GAIN``; otherwise each object most of its rows fit is a candidate link,
-scored by the sum of its rows' llr scaled to the segment's length
+scored by the sum of its rows' llr scaled to the segment's length; while associating (not
+relaying), not where the two only meet at an end (most of the segment's scored rows beyond
+the object's own rows, ``Objects.witnessed``, and most of the object's rows beyond the
+segment's span) and a rival, a segment that will start an object later, explains the rows
+both witness decisively better: such a segment waits for that object
 (``hypotheses.best_hypotheses`` then picks the assignment). A segment whose candidate
 objects are unchanged since it was last scored keeps its links (``Objects.link_cache``).
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
 from rangeproc.fusion.batch import SensorRows
 from rangeproc.parallel import thread_map
 from rangeproc.tracking.objects import (
+    OBSERVED_GAP_SECONDS,
     Objects,
     Segment,
     as_batch,
@@ -26,7 +32,7 @@ from rangeproc.tracking.objects import (
     spread,
 )
 from rangeproc.tracking.relay import BRIDGE_SECONDS, MIN_FIT_SHARE, SCORED_ROWS
-from rangeproc.tracking.score import AMBIGUITY_NATS, segment_score
+from rangeproc.tracking.score import AMBIGUITY_NATS, ObjectTrack, segment_score
 
 #: A segment is split in two when that gains more than this score (nats), each part holding
 #: at least ``MIN_SPLIT_ROWS`` scored rows (a lock that jumped without a visible step).
@@ -142,10 +148,13 @@ def _split(seg: Segment, k_rows: int, new_id: Callable[[], int], rows: SensorRow
 
 def score_links(objects: Objects, pending: list[Segment], names: list[str],
                  new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
-                 relay: bool) -> tuple[list[Segment], dict[tuple[int, int], float]]:
+                 relay: bool, rivals: Mapping[int, Rival] | None = None
+                 ) -> tuple[list[Segment], dict[tuple[int, int], float]]:
     """Candidate links (pending index, object index) -> score (``tracking.synthesis`` step 3),
     after splitting the segments whose rows fit one object and then another
-    (``SPLIT_GAIN``): the pending list may change."""
+    (``SPLIT_GAIN``): the pending list may change. ``rivals``: seed segment id -> the quick
+    trajectory of a segment that will start an object later (:func:`_rival_better`)."""
+    rivals = rivals or {}
     out: list[Segment] = []
     links: dict[tuple[int, int], float] = {}
     queue = list(pending)
@@ -154,7 +163,8 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
         seg = queue.pop(0)
         # the same candidates at the same versions as last time: the same links, no split
         among = candidates(objects, seg, names, relay)
-        versions = tuple((j, name, objects.version.get(name, 0)) for j, name in among)
+        versions = (tuple((j, name, objects.version.get(name, 0)) for j, name in among),
+                    tuple(sorted(k for k in rivals if k != seg.id)))
         cached = objects.link_cache.get((seg.id, relay))
         if cached is not None and cached[0] == versions:
             seg_links = cached[1]
@@ -168,10 +178,14 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
                 replaced[seg.id] = (a.id, b.id)
                 queue[:0] = [a, b]
                 continue
+            among_names = dict(among)
             seg_links = {j: float(v.sum()) * seg.rows.size / scored.size
                          for j, v in llr.items()
                          if v.sum() > 0.0 and known[j].any()
-                         and (v[known[j]] > 0.0).mean() >= MIN_FIT_SHARE}
+                         and (v[known[j]] > 0.0).mean() >= MIN_FIT_SHARE
+                         and (relay or known[j].mean() >= MIN_FIT_SHARE
+                              or _inside_share(objects, among_names[j], seg) >= MIN_FIT_SHARE
+                              or not _rival_better(objects, seg, v, known[j], rivals))}
             if relay:
                 seg_links = _decisive(seg_links)
             objects.link_cache[(seg.id, relay)] = (versions, seg_links)
@@ -180,6 +194,50 @@ def score_links(objects: Objects, pending: list[Segment], names: list[str],
         for j, w in seg_links.items():
             links[(i, j)] = w
     return out, links
+
+
+@dataclass(frozen=True)
+class Rival:
+    """A pending segment that will start an object later in discovery: its rows' times
+    ``t`` (M,) s ascending and its quick trajectory."""
+
+    t: np.ndarray
+    track: ObjectTrack
+
+
+def _rival_better(objects: Objects, seg: Segment, llr: np.ndarray, known: np.ndarray,
+                  rivals: Mapping[int, Rival]) -> bool:
+    """True when a rival (a segment that will start an object later) explains the segment's
+    scored rows that both it and the object witness decisively better (``AMBIGUITY_NATS``)
+    than the object does: ``llr`` (M,) the rows' llr against the object, ``known`` (M,) the
+    rows its own rows witness."""
+    scored = spread(seg.rows, SCORED_ROWS)
+    t = objects.rows[seg.sensor].t[scored]
+    batch = as_batch(objects.rows[seg.sensor], objects.sensor_ids, seg.sensor)
+    for key, rival in rivals.items():
+        if key == seg.id:
+            continue
+        k = np.searchsorted(rival.t, t)
+        near = np.minimum(np.abs(t - rival.t[np.clip(k - 1, 0, rival.t.size - 1)]),
+                          np.abs(rival.t[np.clip(k, 0, rival.t.size - 1)] - t))
+        both = known & (near <= OBSERVED_GAP_SECONDS)
+        if not both.any():
+            continue
+        theirs = segment_score(batch, scored, rival.track)[2]
+        if float(theirs[both].sum() - llr[both].sum()) >= AMBIGUITY_NATS:
+            return True
+    return False
+
+
+def _inside_share(objects: Objects, name: str, seg: Segment) -> float:
+    """Share of object ``name``'s member rows whose times lie within the segment's span
+    (widened by ``OBSERVED_GAP_SECONDS``): 1 for an object the segment spans, small for one
+    it only meets at an end."""
+    mt = objects.member_t[name]
+    if mt.size == 0:
+        return 0.0
+    inside = (mt >= seg.t0 - OBSERVED_GAP_SECONDS) & (mt <= seg.t1 + OBSERVED_GAP_SECONDS)
+    return float(inside.mean())
 
 
 def _decisive(seg_links: dict[int, float]) -> dict[int, float]:

@@ -74,7 +74,7 @@ from rangeproc.tracking.angle_plots import angle_owners
 from rangeproc.tracking.biased_duplicates import join_biased_duplicates
 from rangeproc.tracking.ghosts import ghost_tracks
 from rangeproc.tracking.hypotheses import SearchResult, best_hypotheses
-from rangeproc.tracking.links import conflicts, score_links
+from rangeproc.tracking.links import Rival, conflicts, score_links
 from rangeproc.tracking.objects import (
     QUICK_ROWS_PER_SENSOR,
     Objects,
@@ -221,13 +221,14 @@ def sensor_segments(sensor: int, rows: SensorRows
 def _grow(objects: Objects, names: list[str], pending: list[Segment],
           segs_of: dict[str, list[Segment]], searches: list[SearchResult],
           new_id: Callable[[], int], replaced: dict[int, tuple[int, int]],
-          tick: Callable[[], None], relay: bool) -> list[Segment]:
+          tick: Callable[[], None], relay: bool,
+          rivals: Mapping[int, Rival] | None = None) -> list[Segment]:
     """Attach pending segments to the objects ``names`` until none joins (step 3); only
     segments overlapping an object in time unless ``relay``."""
     for _ in range(MAX_ROUNDS):
         if not pending:
             break
-        pending, links = score_links(objects, pending, names, new_id, replaced, relay)
+        pending, links = score_links(objects, pending, names, new_id, replaced, relay, rivals)
         links = {(i, j): w for (i, j), w in links.items()
                  if not member_conflict(objects, names[j], pending[i], segs_of)}
         if not links:
@@ -343,8 +344,11 @@ def synthesise(rows: Mapping[int, SensorRows], kinds: Sequence[str],
             continue
         segs_of[name] = [seed]
         discovered.append(name)
+        by_id = {s.id: s for s in pending}
+        rivals = {k: Rival(objects.rows[by_id[k].sensor].t[by_id[k].rows], track)
+                  for k, track in ahead.items() if track is not None and k in by_id}
         pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
-                        replaced, tick, relay=False)
+                        replaced, tick, relay=False, rivals=rivals)
     pending = _grow(objects, [*anchored, *discovered], pending, segs_of, searches, new_id,
                     replaced, tick, relay=True)
     discovered = stitch(objects, anchored, discovered, segs_of)
