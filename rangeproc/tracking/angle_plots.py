@@ -14,7 +14,11 @@ object is detected at most once per frame, a detection goes to at most one objec
 sight carries no range, so a detection is taken only where it is unambiguous: its
 log-likelihood ratio under the best object exceeds that under any other by
 ``AMBIGUITY_NATS`` (two boats a few degrees apart seen from one camera give no detection to
-either, rather than half of them to the wrong one), not where the object's line of sight is
+either, rather than half of them to the wrong one), and none at all in a stretch where such
+contested detections are ``CONTESTED_SHARE`` of the object's frames or more
+(:func:`contested_rows`, :func:`outside_stretches`: those left are the ones whose error leans
+away from the other object, a one-sided sample that pushes the object off), not where the
+object's line of sight is
 shared by something no object holds (:func:`outside_shared_sight`: a moored boat behind a
 passing one gives, frame after frame, a second detection nearly as likely under the boat,
 and in the frames that miss the boat the only one), and only to an object already known
@@ -83,6 +87,12 @@ LOCALISED_SIGMAS = 3.0
 #: detections a frame falls in a 1-degree object's gate in a few per cent of them.
 SHARED_SIGHT_WINDOW_S = 1.0
 SHARED_SIGHT_SHARE = 0.5
+#: An object takes none of its detections in a stretch where at least this share of the
+#: frames its gate holds a detection in within ``SHARED_SIGHT_WINDOW_S`` hold one another
+#: object scores nearly as well (:func:`contested_rows`): the detections left it there are
+#: those on the side away from the other object, a censored sample, and censoring a fifth of
+#: a Gaussian sample's one side already moves its mean by 0.35 of its sigma.
+CONTESTED_SHARE = 0.2
 #: Beyond an object's span its detections continue it while none is more than this many
 #: seconds after the one before (:func:`continuing`): a camera at 5-10 frames a second that
 #: misses its object in a few frames running; a longer silence ends the run.
@@ -137,10 +147,9 @@ def angle_owners(batch: MeasurementBatch, rows: np.ndarray,
             scored = np.flatnonzero(np.isfinite(llr[:, j]))
             llr[scored[~localised(batch, rows[scored], track)], j] = -np.inf
     if llr.shape[1] > 1:                      # only where one object stands out
-        top2 = -np.sort(-llr, axis=1)[:, :2]
-        with np.errstate(invalid="ignore"):
-            clear = ~np.isfinite(top2[:, 1]) | (top2[:, 0] - top2[:, 1] >= AMBIGUITY_NATS)
-        llr[~clear] = -np.inf
+        contested = contested_rows(llr)
+        llr[~outside_stretches(contested, llr, frame, frame_t, share=CONTESTED_SHARE)] = -np.inf
+        llr[contested.any(axis=1)] = -np.inf
     llr[~outside_shared_sight(llr, frame, frame_t)] = -np.inf     # ... nor a shared sight
     return continuing(assign_per_scan(llr, frame), batch.t[rows], tracks)
 
@@ -159,6 +168,40 @@ def continuing(owner: np.ndarray, t: np.ndarray, tracks: Sequence[ObjectTrack | 
     return out
 
 
+def contested_rows(llr: np.ndarray) -> np.ndarray:
+    """(P, J) bool: the detections each object (column of ``llr`` (P, J), -inf outside its
+    gate) holds in its gate while another object scores them within ``AMBIGUITY_NATS``."""
+    out = np.zeros(llr.shape, dtype=bool)
+    for j in range(llr.shape[1]):
+        others = np.delete(llr, j, axis=1).max(axis=1)
+        with np.errstate(invalid="ignore"):
+            out[:, j] = np.isfinite(llr[:, j]) & (np.abs(llr[:, j] - others) < AMBIGUITY_NATS)
+    return out
+
+
+def outside_stretches(marked: np.ndarray, llr: np.ndarray, frame: np.ndarray,
+                      frame_t: np.ndarray, window: float = SHARED_SIGHT_WINDOW_S,
+                      share: float = SHARED_SIGHT_SHARE) -> np.ndarray:
+    """(P, J) bool: False for each object's detections in the frames of a stretch where at
+    least ``share`` of its gated frames within ``window`` s hold a ``marked`` (P, J) one."""
+    out = np.ones(llr.shape, dtype=bool)
+    for j in range(llr.shape[1]):
+        gated = np.isfinite(llr[:, j])
+        if gated.sum() < 2:
+            continue
+        seen = np.unique(frame[gated])
+        two = np.zeros(frame_t.size, dtype=bool)
+        two[frame[marked[:, j]]] = True
+        ts = frame_t[seen]
+        n_two = np.r_[0, np.cumsum(two[seen])]
+        lo = np.searchsorted(ts, ts - window, "left")
+        hi = np.searchsorted(ts, ts + window, "right")
+        bad = np.zeros(frame_t.size, dtype=bool)
+        bad[seen] = (n_two[hi] - n_two[lo]) >= share * (hi - lo)
+        out[bad[frame], j] = False
+    return out
+
+
 def outside_shared_sight(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray,
                          window: float = SHARED_SIGHT_WINDOW_S,
                          share: float = SHARED_SIGHT_SHARE) -> np.ndarray:
@@ -171,7 +214,7 @@ def outside_shared_sight(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray
     of its detections: where both are seen it cannot tell which is its own, and where the
     camera misses it the one left is the other's. A lone clutter detection near the object
     makes no stretch."""
-    out = np.ones(llr.shape, dtype=bool)
+    marked = np.zeros(llr.shape, dtype=bool)
     for j in range(llr.shape[1]):
         col = llr[:, j]
         gated = np.flatnonzero(np.isfinite(col))
@@ -182,14 +225,5 @@ def outside_shared_sight(llr: np.ndarray, frame: np.ndarray, frame_t: np.ndarray
         head = np.r_[True, f[1:] != f[:-1]]                     # each frame's best
         second = np.flatnonzero(~head & np.r_[False, head[:-1]])  # ... and runner-up
         close = col[order[second - 1]] - col[order[second]] < AMBIGUITY_NATS
-        two = np.zeros(frame_t.size, dtype=bool)
-        two[f[second[close]]] = True
-        seen = np.unique(f)
-        ts = frame_t[seen]
-        n_two = np.r_[0, np.cumsum(two[seen])]
-        lo = np.searchsorted(ts, ts - window, "left")
-        hi = np.searchsorted(ts, ts + window, "right")
-        bad = np.zeros(frame_t.size, dtype=bool)
-        bad[seen] = (n_two[hi] - n_two[lo]) >= share * (hi - lo)
-        out[bad[frame], j] = False
-    return out
+        marked[order[second[close]], j] = True
+    return outside_stretches(marked, llr, frame, frame_t, window, share)
