@@ -1,29 +1,31 @@
 """The forward filters' fast path: the common rows updated by fused code at a fixed state size.
 
-Nearly every row of a range is one of: a radar's range, azimuth and elevation; a
-theodolite's azimuth and elevation; a GPS position. Their Jacobian is zero beyond the three
-position columns, they have at most three components, and the fusion's state is the 9-state
-CA model (``models.motion.N_KINEMATIC``). :func:`ekf_row` updates such a row in one compiled
-body with those sizes as compile-time constants (one specialisation, for the one state size
-the pipeline uses), with all of the general update's behaviour (``estimation.update``): the
-whole-row chi-square gate, the per-component re-gating of a failed row, the Joseph form,
-the row's chi-square and Gaussian log-likelihood term; the divergence guard follows in the
-kernel as for any row. It performs the same floating-point operations in the same order as
-the general code (terms of a zero Jacobian entry are left out: adding ``0 * p`` changes no
-sum), so a row gives the same bits on either path.
+Nearly every row of a range is one of: a radar's range, azimuth and elevation (with or
+without its range rate); a theodolite's azimuth and elevation; a GPS position; a range-rate
+station's range rate. Their Jacobian is zero beyond the three position columns, or beyond
+the six position and velocity columns for a row with a range rate; they have at most four
+components, and the fusion's state is the 9-state CA model (``models.motion.N_KINEMATIC``).
+:func:`ekf_moments` and :func:`whole_row` update such a row in fused code with those sizes
+as compile-time constants (one specialisation, for the one state size the pipeline uses),
+with all of the general update's behaviour (``estimation.update``): the whole-row chi-square
+gate, the per-component re-gating of a failed row, the Joseph form, the row's chi-square and
+Gaussian log-likelihood term; the divergence guard follows in the kernel as for any row. It
+performs the same floating-point operations in the same order as the general code (terms of
+a zero Jacobian entry are left out: adding ``0 * p`` changes no sum), so a row gives the
+same bits on either path.
 
 Rows it does not take are updated by the general code (``estimation.moments``,
-``estimation.update``): a range rate or GPS velocity component (Jacobian in the velocity
-columns), an angle-only row whose linearisation error is worth adding
-(``moments.add_linearisation_noise``: a wide prior near the sensor), any state size other
-than nine.
+``estimation.update``): a GPS velocity component, an angle-only row whose linearisation
+error is worth adding (``moments.add_linearisation_noise``: a wide prior near the sensor),
+any state size other than nine.
 
 The helpers are inlined into the kernel (``inline="always"``): a call of a separately
 compiled helper with array arguments costs reference counting on every array, more than the
 arithmetic of a small row. The gated update is not a copy: it is ``estimation.update``'s one
 source compiled with this path's sizes (``update.specialise_update``), or in the EKF loop,
 where a row the whole-row gate rejects is rare, the general update called (:data:`regate`);
-the moments' ``H P`` and ``H P H^T`` are ``moments.cross_moments`` at three columns.
+the moments' ``H P`` and ``H P H^T`` are ``moments.cross_moments`` at three columns (six
+for a row with a range rate).
 """
 from __future__ import annotations
 
@@ -45,25 +47,29 @@ from rangeproc.models.measurement import (
 )
 from rangeproc.models.motion import N_KINEMATIC
 
-#: The state size of the fast path (compile-time constant) and the Jacobian columns its rows
-#: can be non-zero in (position).
+#: The state size of the fast path (compile-time constant) and the Jacobian columns its
+#: position components (range, azimuth, elevation; a Cartesian position) can be non-zero in.
 N = N_KINEMATIC
 NP = 3
+#: The most components of a fast-path row (range, azimuth, elevation and range rate) and the
+#: component index of the range rate, whose Jacobian also fills the velocity columns
+#: (``kernels.N_OBSERVED`` columns in all).
+MP = 4
+RANGE_RATE = 3
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def fast_workspace():
     """Work arrays of the fast path, ``(idx, sel, sig_row, sig, y, yw, sdiag, C, Z, Hs, S, HP,
-    Kt, AP, APHt, winv, dinv)``: index and sigma vectors (3,), innovations (3,), ``C``,
-    ``HP``, ``Kt`` (3, 9), ``Z``, ``S`` (3, 3), ``Hs`` (3, ``N_OBSERVED``) zeros (the
-    position columns written, the others kept zero: :data:`regate`), ``AP`` (9, 9), ``APHt``
-    (9, 3), and
-    :func:`whole_row`'s reciprocals ``winv``, ``dinv`` (6,)."""
-    return (np.empty(NP, dtype=np.int64), np.empty(NP, dtype=np.int64), np.empty(NP),
-            np.empty(NP), np.empty(NP), np.empty(NP), np.empty(NP), np.empty((NP, N)),
-            np.empty((NP, NP)), np.zeros((NP, N_OBSERVED)), np.empty((NP, NP)),
-            np.empty((NP, N)),
-            np.empty((NP, N)), np.empty((N, N)), np.empty((N, NP)), np.empty(N_COMPONENTS),
+    Kt, AP, APHt, winv, dinv)``: index and sigma vectors (4,), innovations (4,), ``C``,
+    ``HP``, ``Kt`` (4, 9), ``Z``, ``S`` (4, 4), ``Hs`` (4, ``N_OBSERVED``) zeros (a row's
+    columns written, the others kept zero: :data:`regate`), ``AP`` (9, 9), ``APHt`` (9, 4),
+    and :func:`whole_row`'s reciprocals ``winv``, ``dinv`` (6,)."""
+    return (np.empty(MP, dtype=np.int64), np.empty(MP, dtype=np.int64), np.empty(MP),
+            np.empty(MP), np.empty(MP), np.empty(MP), np.empty(MP), np.empty((MP, N)),
+            np.empty((MP, MP)), np.zeros((MP, N_OBSERVED)), np.empty((MP, MP)),
+            np.empty((MP, N)),
+            np.empty((MP, N)), np.empty((N, N)), np.empty((N, MP)), np.empty(N_COMPONENTS),
             np.empty(N_COMPONENTS))
 
 
@@ -112,11 +118,47 @@ def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _range_rate_jacobian(xl: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, i: int,
+                         H: np.ndarray, h: np.ndarray) -> None:
+    """``h[3]`` and ``H[3, :6]`` of row ``i``'s range rate (``sv`` (N, 3) the sensor's
+    velocity) at ``xl``: ``models.measurement.measure``'s arithmetic for those entries."""
+    p0 = xl[0] - s[i, 0]
+    p1 = xl[1] - s[i, 1]
+    p2 = xl[2] - s[i, 2]
+    v0 = xl[3] - sv[i, 0]
+    v1 = xl[4] - sv[i, 1]
+    v2 = xl[5] - sv[i, 2]
+    d0 = Qr[i, 0, 0] * p0 + Qr[i, 0, 1] * p1 + Qr[i, 0, 2] * p2      # d = Qr (p - s)
+    d1 = Qr[i, 1, 0] * p0 + Qr[i, 1, 1] * p1 + Qr[i, 1, 2] * p2
+    d2 = Qr[i, 2, 0] * p0 + Qr[i, 2, 1] * p1 + Qr[i, 2, 2] * p2
+    w0 = Qr[i, 0, 0] * v0 + Qr[i, 0, 1] * v1 + Qr[i, 0, 2] * v2      # w = Qr (v - sv)
+    w1 = Qr[i, 1, 0] * v0 + Qr[i, 1, 1] * v1 + Qr[i, 1, 2] * v2
+    w2 = Qr[i, 2, 0] * v0 + Qr[i, 2, 1] * v1 + Qr[i, 2, 2] * v2
+    r, r2, _, _ = slant_terms(d0, d1, d2)
+    dw = d0 * w0 + d1 * w1 + d2 * w2
+    h[RANGE_RATE] = dw / r
+    jr0 = d0 / r
+    jr1 = d1 / r
+    jr2 = d2 / r
+    c = dw / (r2 * r)
+    jd0 = w0 / r - c * d0                                 # dRdot/dd
+    jd1 = w1 / r - c * d1
+    jd2 = w2 / r - c * d2
+    for j in range(NP):
+        q0 = Qr[i, 0, j]
+        q1 = Qr[i, 1, j]
+        q2 = Qr[i, 2, j]
+        H[RANGE_RATE, j] = jd0 * q0 + jd1 * q1 + jd2 * q2
+        H[RANGE_RATE, NP + j] = jr0 * q0 + jr1 * q1 + jr2 * q2   # dRdot/dv = (d/R)^T Qr
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _needs_linearisation_noise(x: np.ndarray, s: np.ndarray, Qr: np.ndarray, i: int,
-                               P: np.ndarray, sig: np.ndarray, m: int) -> bool:
+                               P: np.ndarray, idx: np.ndarray, sig: np.ndarray,
+                               m: int) -> bool:
     """Whether ``moments.add_linearisation_noise`` would work out this angle-only row's
-    linearisation error (its cheap bound, same arithmetic): such rows take the general
-    path."""
+    linearisation error (its cheap bound on the angle components, same arithmetic): such
+    rows take the general path."""
     p0 = x[0] - s[i, 0]
     p1 = x[1] - s[i, 1]
     p2 = x[2] - s[i, 2]
@@ -126,60 +168,71 @@ def _needs_linearisation_noise(x: np.ndarray, s: np.ndarray, Qr: np.ndarray, i: 
     tr = P[0, 0] + P[1, 1] + P[2, 2]
     bound = (tr / rho2) ** 2
     for a in range(m):
-        if bound > LIN_NOISE_SHARE * sig[a] * sig[a]:
+        if (idx[a] == 1 or idx[a] == 2) and bound > LIN_NOISE_SHARE * sig[a] * sig[a]:
             return True
     return False
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, Qr: np.ndarray,
-                i: int, x: np.ndarray, x_lin: np.ndarray, k: int, use_lin: bool,
-                P: np.ndarray, idx: np.ndarray, sig: np.ndarray, y: np.ndarray,
-                C: np.ndarray, Z: np.ndarray, Hs: np.ndarray) -> int:
+def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv: np.ndarray,
+                Qr: np.ndarray, i: int, x: np.ndarray, x_lin: np.ndarray, k: int,
+                use_lin: bool, P: np.ndarray, idx: np.ndarray, sig: np.ndarray, y: np.ndarray,
+                C: np.ndarray, Z: np.ndarray, Hs: np.ndarray):
     """The EKF's innovation moments of row ``i`` (of the batch arrays ``z``, ``sigma``,
-    ``s``, ``Qr``) if the fast path takes it, linearised at ``x`` or at ``x_lin[k]``: fills
-    ``idx[:m]``, ``sig[:m]`` (stated sigmas), ``y[:m]``, ``C[:m]`` = H P (m, 9), ``Z`` = H P
-    H^T, ``Hs[:m]`` the position columns of H, and returns ``m``; 0 for a row without a
-    measured component, -1 for a row the fast path does not take (module docstring)."""
+    ``s``, ``sv``, ``Qr``) if the fast path takes it, linearised at ``x`` or at
+    ``x_lin[k]``: fills ``idx[:m]``, ``sig[:m]`` (stated sigmas), ``y[:m]``, ``C[:m]`` = H P
+    (m, 9), ``Z`` = H P H^T, ``Hs[:m]`` the Jacobian's first ``n_cols`` columns (the others
+    zero), and returns ``(m, n_cols)``: ``n_cols`` 3 (position) or 6 for a row with a range
+    rate. ``m`` is 0 for a row without a measured component, -1 for a row the fast path does
+    not take (module docstring)."""
     m = 0
+    n_cols = NP
     for c in range(N_COMPONENTS):
         if not math.isnan(z[i, c]) and sigma[i, c] > 0.0:
-            if c >= NP:
-                return -1
+            if c > RANGE_RATE or (c == RANGE_RATE and model != SPHERICAL):
+                return -1, NP
+            if c == RANGE_RATE:
+                n_cols = N_OBSERVED
             idx[m] = c
             sig[m] = sigma[i, c]
             m += 1
     if m == 0:
-        return 0
+        return 0, NP
     if model != CARTESIAN and model != SPHERICAL:
-        return -1
-    if model == SPHERICAL and idx[0] != 0 and _needs_linearisation_noise(x, s, Qr, i, P, sig,
-                                                                         m):
-        return -1
+        return -1, NP
+    if model == SPHERICAL and idx[0] != 0 and _needs_linearisation_noise(x, s, Qr, i, P, idx,
+                                                                         sig, m):
+        return -1, NP
     want0 = want1 = want2 = False
     for a in range(m):
         want0 = want0 or idx[a] == 0
         want1 = want1 or idx[a] == 1
         want2 = want2 or idx[a] == 2
-    # h and H's position rows at component index c (< 3), then moved to row a <= c
-    _position_jacobian(model, x_lin[k] if use_lin else x, s, Qr, i, want0, want1, want2, Hs,
-                       y)
+    # h and H's rows at component index c, then moved to row a <= c
+    xl = x_lin[k] if use_lin else x
+    if want0 or want1 or want2:
+        _position_jacobian(model, xl, s, Qr, i, want0, want1, want2, Hs, y)
+    if n_cols > NP:
+        _range_rate_jacobian(xl, s, sv, Qr, i, Hs, y)
     for a in range(m):
         c = idx[a]
+        cols = N_OBSERVED if c == RANGE_RATE else NP
         hc = y[c]
         if use_lin:                                  # h(x_lin) + H (x - x_lin)
             acc = 0.0
-            for j in range(NP):
+            for j in range(cols):
                 acc += Hs[c, j] * (x[j] - x_lin[k, j])
             hc += acc
         v = z[i, c] - hc                             # innovation, azimuth wrapped
         if model == SPHERICAL and c == AZIMUTH:
             v = wrap_angle(v)
         y[a] = v
-        for j in range(NP):
+        for j in range(cols):
             Hs[a, j] = Hs[c, j]
-    cross_moments(Hs, P, m, N, NP, C, Z)             # C = H P, Z = H P H^T
-    return m
+        for j in range(cols, N_OBSERVED):            # zeros where an earlier range rate
+            Hs[a, j] = 0.0                           # wrote (the general update reads them)
+    cross_moments(Hs, P, m, N, n_cols, C, Z)         # C = H P, Z = H P H^T
+    return m, n_cols
 
 
 #: The gated update of a fast-path row that :func:`whole_row` rejects (its per-component
@@ -188,7 +241,7 @@ def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, Qr:
 #: order), for the loops where rejected rows are common: the IMM (a row under a model that
 #: does not fit the motion) and the UKF's fixed-size rows (:func:`row_update`). Returns
 #: ``(nis, accepted, n_accepted, mask, loglik)``.
-_, update = specialise_update(N, NP, "always", False)
+_, update = specialise_update(N, N_OBSERVED, "always", False)
 
 #: The EKF loop's re-gating, where a rejected row is rare (a wild value): the general
 #: ``update.update_row`` itself, called, not inlined, so that the loop compiles one gated
@@ -202,14 +255,15 @@ regate = update_row
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def whole_row(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: np.ndarray,
-              m: int, x: np.ndarray, P: np.ndarray, gate: np.ndarray, joseph: bool,
+              m: int, n_cols: int, x: np.ndarray, P: np.ndarray, gate: np.ndarray, joseph: bool,
               yw: np.ndarray, winv: np.ndarray, HP: np.ndarray, S: np.ndarray,
               dinv: np.ndarray, Kt: np.ndarray, AP: np.ndarray, APHt: np.ndarray):
     """The whole-row gated update of a row's ``m`` components at n = 9: ``update``'s
     arithmetic for a row whose chi-square passes the gate, fused into one body.
 
     Moments as :func:`update` takes them (``y``, ``sig`` (m,), ``C`` = H P (m, 9), ``Z`` =
-    H P H^T, ``Hs`` the Jacobian's position columns (m, 3), needed when ``joseph``). Whitened
+    H P H^T, ``Hs`` the Jacobian's first ``n_cols`` columns (m, n_cols), needed when
+    ``joseph``). Whitened
     (``yw = y / sig``, ``HP = C / sig``, ``S = Z / (sig sig^T) + I``), Cholesky of ``S``,
     chi-square ``yw^T S^-1 yw`` against ``gate[m]``; if it passes, gain ``K^T = S^-1 HP``,
     ``x += K yw`` and the Joseph form ``(I - K H) P (I - K H)^T + K K^T`` (``joseph``) or
@@ -300,7 +354,7 @@ def whole_row(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: 
             for a in range(m):
                 acc = 0.0
                 inv = winv[a]
-                for c in range(NP):
+                for c in range(n_cols):
                     acc += AP[i, c] * Hs[a, c] * inv
                 APHt[i, a] = acc
         for i in range(N):                               # A P A^T + K K^T (R = I)
@@ -342,7 +396,7 @@ def row_update(y: np.ndarray, sig_row: np.ndarray, C: np.ndarray, Z: np.ndarray,
     """The fast path's gated update of one row: :func:`whole_row`, and for a row it rejects
     :func:`update` (per-component re-gating; the same results as :func:`update` alone).
     Returns ``(nis, accepted, n_accepted, mask, loglik)`` as ``update.update_row``."""
-    val, ok, logdet = whole_row(y, sig_row, C, Z, Hs, m, x, P, gate, joseph, yw, winv, HP, S,
+    val, ok, logdet = whole_row(y, sig_row, C, Z, Hs, m, NP, x, P, gate, joseph, yw, winv, HP, S,
                                 dinv, Kt, AP, APHt)
     if ok:
         return val, True, m, 0, row_loglik(val, logdet, m)

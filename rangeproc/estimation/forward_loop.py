@@ -245,14 +245,15 @@ def _specialise(family: Family, n_state: int) -> Callable:
             # --- the epoch's rows: gated update (eq. 8-10) and divergence guard
             while i < N and meas_epoch[i] == k:
                 if FAST:
-                    m = fu.ekf_moments(model[i], z, sigma, s, Qr, i, x, x_lin, k, use_lin, P,
-                                       f_idx, f_sig_row, f_y, f_C, f_Z, f_Hs)
+                    m, n_cols = fu.ekf_moments(model[i], z, sigma, s, sv, Qr, i, x, x_lin, k,
+                                               use_lin, P, f_idx, f_sig_row, f_y, f_C, f_Z,
+                                               f_Hs)
                     if m >= 0:                           # the fast path took the row
                         dof[i] = m
                         if m > 0:
-                            val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, m, x,
-                                                       P, gate, True, f_yw, f_winv, f_HP, f_S,
-                                                       f_dinv, f_Kt, f_AP, f_APHt)
+                            val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, m,
+                                                       n_cols, x, P, gate, True, f_yw, f_winv,
+                                                       f_HP, f_S, f_dinv, f_Kt, f_AP, f_APHt)
                             if ok:                       # the whole row passed the gate
                                 loglik = _record_row(i, val, 0, fu.row_loglik(val, ld, m),
                                                      loglik, nis, rejected, ll_rows)

@@ -223,13 +223,13 @@ def _specialise(n_state: int) -> Callable:
                     i += 1
                     continue
                 for j in range(r):
-                    mf = fu.ekf_moments(model[i], z, sigma, s, Qr, i, X[j], x_lin, k, use_lin,
-                                        PP[j], f_idx, f_sig_row, f_y, f_C, f_Z,
-                                        f_Hs) if FAST else -1
+                    mf, n_cols = fu.ekf_moments(
+                        model[i], z, sigma, s, sv, Qr, i, X[j], x_lin, k, use_lin, PP[j], f_idx,
+                        f_sig_row, f_y, f_C, f_Z, f_Hs) if FAST else (-1, fu.NP)
                     if mf > 0:                                  # the fast path took the row
-                        val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, mf, X[j],
-                                                   PP[j], gate, JOSEPH, f_yw, f_winv, f_HP, f_S,
-                                                   f_dinv, f_Kt, f_AP, f_APHt)
+                        val, ok, ld = fu.whole_row(f_y, f_sig_row, f_C, f_Z, f_Hs, mf, n_cols,
+                                                   X[j], PP[j], gate, JOSEPH, f_yw, f_winv,
+                                                   f_HP, f_S, f_dinv, f_Kt, f_AP, f_APHt)
                         mask = 0
                         if ok:                                  # the whole row passed
                             ll_row = fu.row_loglik(val, ld, mf)

@@ -33,18 +33,21 @@ def _rows(n: int = 1500, seed: int = 5) -> tuple[FilterRows, FilterPrior]:
     model = np.where(np.arange(n) % 7 == 3, CARTESIAN, SPHERICAL)
     z = np.full((n, 6), np.nan)
     sigma = np.zeros((n, 6))
-    s = np.zeros((n, 3))
+    s, sv = np.zeros((n, 3)), np.zeros((n, 3))
     for i in range(n):
         x = np.r_[truth[i], vel[i], np.zeros(3)]
         if model[i] == SPHERICAL:
             s[i] = site
-            h, _ = measure_py(SPHERICAL, x, site, np.zeros(3), np.eye(3))
+            sv[i] = [4.0, -3.0, 0.5]                   # a moving sensor's velocity
+            h, _ = measure_py(SPHERICAL, x, site, sv[i], np.eye(3))
             sigma[i, :4] = [5.0, 2e-4, 2e-4, 0.1]
             z[i, :4] = h[:4] + rng.normal(0.0, sigma[i, :4])
             if i % 3 == 0:
                 z[i, 0] = np.nan                       # theodolite: angles only
             if i % 4 != 1:
                 z[i, 3] = np.nan                       # range rate on some rows only
+            if i % 5 == 2:
+                z[i, :3] = np.nan                      # a range-rate station: rate only
         else:
             sigma[i] = [2.0, 2.0, 3.0, 0.1, 0.1, 0.1]
             z[i] = np.r_[truth[i], vel[i]] + rng.normal(0.0, sigma[i])
@@ -52,7 +55,7 @@ def _rows(n: int = 1500, seed: int = 5) -> tuple[FilterRows, FilterPrior]:
                 z[i, 3:] = np.nan                      # GPS position only
     z[97::211, 1] += 0.05                              # wild azimuths: partly rejected rows
     z[600:640, :3] += 400.0                            # a jump: the guard re-opens P
-    rows = FilterRows(t, np.arange(n), model, z, sigma, s, np.zeros((n, 3)),
+    rows = FilterRows(t, np.arange(n), model, z, sigma, s, sv,
                       np.tile(np.eye(3), (n, 1, 1)), (model == CARTESIAN).astype(np.int64))
     x0 = np.r_[truth[0], vel[0], np.zeros(3)] + rng.normal(0.0, [20.0] * 3 + [5.0] * 3 + [1.0] * 3)
     P0 = np.diag([50.0 ** 2] * 3 + [20.0 ** 2] * 3 + [5.0 ** 2] * 3)
