@@ -74,18 +74,27 @@ def fast_workspace():
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _sensor_frame(xl: np.ndarray, k: int, s: np.ndarray, Qr: np.ndarray,
+                  i: int) -> tuple[float, float, float]:
+    """``Qr (xl[k:k + 3] - s[i])`` of row ``i`` (m or m/s in the sensor's frame): the
+    position (``k`` 0, ``s`` the sites) or velocity (``k`` 3, ``s`` the sensors' velocities)
+    relative to the sensor, as ``models.measurement.measure`` computes it."""
+    a0 = xl[k] - s[i, 0]
+    a1 = xl[k + 1] - s[i, 1]
+    a2 = xl[k + 2] - s[i, 2]
+    return (Qr[i, 0, 0] * a0 + Qr[i, 0, 1] * a1 + Qr[i, 0, 2] * a2,
+            Qr[i, 1, 0] * a0 + Qr[i, 1, 1] * a1 + Qr[i, 1, 2] * a2,
+            Qr[i, 2, 0] * a0 + Qr[i, 2, 1] * a1 + Qr[i, 2, 2] * a2)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray, i: int,
                        want0: bool, want1: bool, want2: bool, H: np.ndarray,
                        h: np.ndarray) -> None:
     """``h[c]`` and the position columns ``H[c, :3]`` of the wanted components c < 3 of row
     ``i`` (``s`` (N, 3), ``Qr`` (N, 3, 3)) at ``xl``: ``models.measurement.measure``'s
     arithmetic for those entries."""
-    p0 = xl[0] - s[i, 0]
-    p1 = xl[1] - s[i, 1]
-    p2 = xl[2] - s[i, 2]
-    d0 = Qr[i, 0, 0] * p0 + Qr[i, 0, 1] * p1 + Qr[i, 0, 2] * p2      # d = Qr (p - s)
-    d1 = Qr[i, 1, 0] * p0 + Qr[i, 1, 1] * p1 + Qr[i, 1, 2] * p2
-    d2 = Qr[i, 2, 0] * p0 + Qr[i, 2, 1] * p1 + Qr[i, 2, 2] * p2
+    d0, d1, d2 = _sensor_frame(xl, 0, s, Qr, i)                       # d = Qr (p - s)
     if model == CARTESIAN:
         h[0] = d0
         h[1] = d1
@@ -122,18 +131,8 @@ def _range_rate_jacobian(xl: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.n
                          H: np.ndarray, h: np.ndarray) -> None:
     """``h[3]`` and ``H[3, :6]`` of row ``i``'s range rate (``sv`` (N, 3) the sensor's
     velocity) at ``xl``: ``models.measurement.measure``'s arithmetic for those entries."""
-    p0 = xl[0] - s[i, 0]
-    p1 = xl[1] - s[i, 1]
-    p2 = xl[2] - s[i, 2]
-    v0 = xl[3] - sv[i, 0]
-    v1 = xl[4] - sv[i, 1]
-    v2 = xl[5] - sv[i, 2]
-    d0 = Qr[i, 0, 0] * p0 + Qr[i, 0, 1] * p1 + Qr[i, 0, 2] * p2      # d = Qr (p - s)
-    d1 = Qr[i, 1, 0] * p0 + Qr[i, 1, 1] * p1 + Qr[i, 1, 2] * p2
-    d2 = Qr[i, 2, 0] * p0 + Qr[i, 2, 1] * p1 + Qr[i, 2, 2] * p2
-    w0 = Qr[i, 0, 0] * v0 + Qr[i, 0, 1] * v1 + Qr[i, 0, 2] * v2      # w = Qr (v - sv)
-    w1 = Qr[i, 1, 0] * v0 + Qr[i, 1, 1] * v1 + Qr[i, 1, 2] * v2
-    w2 = Qr[i, 2, 0] * v0 + Qr[i, 2, 1] * v1 + Qr[i, 2, 2] * v2
+    d0, d1, d2 = _sensor_frame(xl, 0, s, Qr, i)                       # d = Qr (p - s)
+    w0, w1, w2 = _sensor_frame(xl, 3, sv, Qr, i)                      # w = Qr (v - sv)
     r, r2, _, _ = slant_terms(d0, d1, d2)
     dw = d0 * w0 + d1 * w1 + d2 * w2
     h[RANGE_RATE] = dw / r
@@ -159,11 +158,7 @@ def _needs_linearisation_noise(x: np.ndarray, s: np.ndarray, Qr: np.ndarray, i: 
     """Whether ``moments.add_linearisation_noise`` would work out this angle-only row's
     linearisation error (its cheap bound on the angle components, same arithmetic): such
     rows take the general path."""
-    p0 = x[0] - s[i, 0]
-    p1 = x[1] - s[i, 1]
-    p2 = x[2] - s[i, 2]
-    d0 = Qr[i, 0, 0] * p0 + Qr[i, 0, 1] * p1 + Qr[i, 0, 2] * p2
-    d1 = Qr[i, 1, 0] * p0 + Qr[i, 1, 1] * p1 + Qr[i, 1, 2] * p2
+    d0, d1, _ = _sensor_frame(x, 0, s, Qr, i)
     rho2 = max(d0 * d0 + d1 * d1, 1e-6)
     tr = P[0, 0] + P[1, 1] + P[2, 2]
     bound = (tr / rho2) ** 2
