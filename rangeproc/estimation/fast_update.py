@@ -88,13 +88,13 @@ def _sensor_frame(xl: np.ndarray, k: int, s: np.ndarray, Qr: np.ndarray,
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray, i: int,
-                       want0: bool, want1: bool, want2: bool, H: np.ndarray,
-                       h: np.ndarray) -> None:
+def _position_jacobian(model: int, d0: float, d1: float, d2: float, r: float, r2: float,
+                       rho: float, rho2: float, Qr: np.ndarray, i: int, want0: bool,
+                       want1: bool, want2: bool, H: np.ndarray, h: np.ndarray) -> None:
     """``h[c]`` and the position columns ``H[c, :3]`` of the wanted components c < 3 of row
-    ``i`` (``s`` (N, 3), ``Qr`` (N, 3, 3)) at ``xl``: ``models.measurement.measure``'s
-    arithmetic for those entries."""
-    d0, d1, d2 = _sensor_frame(xl, 0, s, Qr, i)                       # d = Qr (p - s)
+    ``i`` (``Qr`` (N, 3, 3)) from the sensor-frame vector ``d`` (:func:`_sensor_frame`) and,
+    for SPHERICAL, its :func:`slant_terms`: ``models.measurement.measure``'s arithmetic for
+    those entries."""
     if model == CARTESIAN:
         h[0] = d0
         h[1] = d1
@@ -103,7 +103,6 @@ def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray
             for j in range(NP):
                 H[a, j] = Qr[i, a, j]
         return
-    r, r2, rho, rho2 = slant_terms(d0, d1, d2)
     if want0:
         h[0] = r
         jr0 = d0 / r
@@ -127,13 +126,13 @@ def _position_jacobian(model: int, xl: np.ndarray, s: np.ndarray, Qr: np.ndarray
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _range_rate_jacobian(xl: np.ndarray, s: np.ndarray, sv: np.ndarray, Qr: np.ndarray, i: int,
-                         H: np.ndarray, h: np.ndarray) -> None:
-    """``h[3]`` and ``H[3, :6]`` of row ``i``'s range rate (``sv`` (N, 3) the sensor's
-    velocity) at ``xl``: ``models.measurement.measure``'s arithmetic for those entries."""
-    d0, d1, d2 = _sensor_frame(xl, 0, s, Qr, i)                       # d = Qr (p - s)
+def _range_rate_jacobian(d0: float, d1: float, d2: float, r: float, r2: float,
+                         xl: np.ndarray, sv: np.ndarray, Qr: np.ndarray, i: int, H: np.ndarray,
+                         h: np.ndarray) -> None:
+    """``h[3]`` and ``H[3, :6]`` of row ``i``'s range rate at ``xl`` (``sv`` (N, 3) the
+    sensor's velocity) from the sensor-frame vector ``d`` and its slant range ``r``, ``r2``:
+    ``models.measurement.measure``'s arithmetic for those entries."""
     w0, w1, w2 = _sensor_frame(xl, 3, sv, Qr, i)                      # w = Qr (v - sv)
-    r, r2, _, _ = slant_terms(d0, d1, d2)
     dw = d0 * w0 + d1 * w1 + d2 * w2
     h[RANGE_RATE] = dw / r
     jr0 = d0 / r
@@ -205,10 +204,15 @@ def ekf_moments(model: int, z: np.ndarray, sigma: np.ndarray, s: np.ndarray, sv:
         want2 = want2 or idx[a] == 2
     # h and H's rows at component index c, then moved to row a <= c
     xl = x_lin[k] if use_lin else x
+    d0, d1, d2 = _sensor_frame(xl, 0, s, Qr, i)                       # d = Qr (p - s)
+    r = r2 = rho = rho2 = 0.0
+    if model == SPHERICAL:
+        r, r2, rho, rho2 = slant_terms(d0, d1, d2)
     if want0 or want1 or want2:
-        _position_jacobian(model, xl, s, Qr, i, want0, want1, want2, Hs, y)
+        _position_jacobian(model, d0, d1, d2, r, r2, rho, rho2, Qr, i, want0, want1, want2,
+                           Hs, y)
     if n_cols > NP:
-        _range_rate_jacobian(xl, s, sv, Qr, i, Hs, y)
+        _range_rate_jacobian(d0, d1, d2, r, r2, xl, sv, Qr, i, Hs, y)
     for a in range(m):
         c = idx[a]
         cols = N_OBSERVED if c == RANGE_RATE else NP
@@ -258,8 +262,8 @@ def whole_row(y: np.ndarray, sig: np.ndarray, C: np.ndarray, Z: np.ndarray, Hs: 
 
     Moments as :func:`update` takes them (``y``, ``sig`` (m,), ``C`` = H P (m, 9), ``Z`` =
     H P H^T, ``Hs`` the Jacobian's first ``n_cols`` columns (m, n_cols), needed when
-    ``joseph``). Whitened
-    (``yw = y / sig``, ``HP = C / sig``, ``S = Z / (sig sig^T) + I``), Cholesky of ``S``,
+    ``joseph``). Whitened (``yw = y / sig``, ``HP = C / sig``, ``S = Z / (sig sig^T) + I``),
+    Cholesky of ``S``,
     chi-square ``yw^T S^-1 yw`` against ``gate[m]``; if it passes, gain ``K^T = S^-1 HP``,
     ``x += K yw`` and the Joseph form ``(I - K H) P (I - K H)^T + K K^T`` (``joseph``) or
     ``P - K HP``, symmetrised. The same floating-point operations in the same order as
