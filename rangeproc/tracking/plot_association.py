@@ -63,7 +63,8 @@ EXTEND_GAP_SCANS = 2.5
 
 def azimuth_sector(azimuth: np.ndarray) -> float:
     """The azimuth sector (rad) that angles ``azimuth`` (N,) rad span: the turn less its
-    widest empty sector (2 pi for none)."""
+    widest empty sector (2 pi for none); blanks (an edited-out component) left out."""
+    azimuth = azimuth[np.isfinite(azimuth)]
     if azimuth.size == 0:
         return 2 * np.pi
     az = np.sort(np.mod(azimuth, 2 * np.pi))
@@ -81,10 +82,17 @@ def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
     ``N(z; h, S)``, must exceed it; the score's unrelated density is uniform over a fixed
     extent (``EXTENT_SPHERICAL``), so the floor is the mixture llr of ``log density +
     log extent``. An object that hardly knows where it is (a bridge of minutes: sigma of tens
-    of km) otherwise gates every plot and takes the best clutter plot of each scan."""
+    of km) otherwise gates every plot and takes the best clutter plot of each scan.
+
+    Blank components (edited out) span nothing. A sensor that measures no elevation (a 2-D
+    radar or lidar: every plot at the assumed elevation 0, ``fusion.assemble``) has no
+    floor (-inf: its plots span no elevation). Floors for such sensors, tried in two forms
+    on the Autoferry recordings (the assumed elevation scored as clutter's too; range and
+    azimuth alone), lowered the boats' coverage (docs/methods/several-objects.md)."""
     z = batch.z[plots]
     n_scans = max(np.unique(scan).size, 1)
-    spans = [float(np.ptp(z[:, 0])) if plots.size else 0.0, azimuth_sector(z[:, AZIMUTH])]
+    ranged = z[np.isfinite(z[:, 0]), 0]
+    spans = [float(np.ptp(ranged)) if ranged.size else 0.0, azimuth_sector(z[:, AZIMUTH])]
     elevated = np.isfinite(z[:, 2])
     if elevated.any():
         spans.append(float(np.ptp(z[elevated, 2])))

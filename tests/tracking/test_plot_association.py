@@ -3,8 +3,11 @@ within the gate, an object takes at most one plot per scan, clutter stays out.""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from rangeproc.fusion.assemble import PLANE_ELEVATION_SIGMA
 from rangeproc.tracking.plot_association import (
+    azimuth_sector,
     clutter_floor,
     extend_objects,
     plot_owners,
@@ -145,3 +148,47 @@ def test_an_object_that_hardly_knows_where_it_is_takes_no_clutter(plot_batch) ->
     owner, _ = plot_owners(batch, plots, tracks, scan, floor=floor)
     assert (owner == 1).sum() == 0
     assert (owner[truth == 0] == 0).all()
+
+
+def test_a_blank_azimuth_leaves_the_floor_standing(plot_batch) -> None:
+    """``clutter_floor`` where the editor blanked one clutter plot's azimuth: the floor
+    stays finite (a blank spans nothing; it made the floor NaN, which no llr reaches, and
+    every plot of the sensor then went to no object), the object that hardly knows where
+    it is takes no clutter, and A keeps its plots."""
+    rng = np.random.default_rng(12)
+    period = 4.0
+    scans = np.arange(30)
+    ta = scans * period + 0.10
+    a = _line((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), ta)
+    n_clutter = 5
+    tc = np.repeat(scans * period, n_clutter) + rng.uniform(0.2, 3.8, scans.size * n_clutter)
+    clutter = np.column_stack([rng.uniform(-40_000, 40_000, (tc.size, 2)),
+                               rng.uniform(500, 5_000, tc.size)])
+    t = np.concatenate([ta, tc])
+    truth = np.concatenate([np.zeros(ta.size), np.full(tc.size, -1)]).astype(int)
+    p = np.vstack([a, clutter])
+    order = np.argsort(t, kind="stable")
+    t, p, truth = t[order], p[order], truth[order]
+    rae = _rae(p) + rng.normal(size=(t.size, 3)) * SIG
+    rae[np.flatnonzero(truth == -1)[3], 1] = np.nan                 # a blank azimuth
+    rae[np.flatnonzero(truth == -1)[7], 0] = np.nan                 # and a blank range
+    grid = np.arange(-1.0, 125.0, 0.1)
+    tracks = [_track((20_000.0, 20_000.0, 3_000.0), (-150.0, 0.0, 0.0), grid, 3.0),
+              _track((-10_000.0, 5_000.0, 3_000.0), (0.0, 0.0, 0.0), grid, 30_000.0)]
+    scan = np.floor(t / period).astype(np.int64)
+    batch = plot_batch(t, rae, SIG)
+    plots = np.arange(t.size)
+    floor = clutter_floor(batch, plots, scan, int((truth == -1).sum()))
+    assert np.isfinite(floor).all()
+    owner, _ = plot_owners(batch, plots, tracks, scan, floor=floor)
+    assert (owner == 1).sum() == 0
+    assert (owner[truth == 0] == 0).all()
+    flat = rae.copy()
+    flat[:, 2] = 0.0                       # a 2-D radar: every plot at the assumed elevation
+    two_d = plot_batch(t, flat, np.array([SIG[0], SIG[1], PLANE_ELEVATION_SIGMA]))
+    assert np.isneginf(clutter_floor(two_d, plots, scan, int((truth == -1).sum()))).all()
+
+
+def test_the_azimuth_sector_leaves_blanks_out() -> None:
+    assert azimuth_sector(np.array([0.1, np.nan, 0.3])) == pytest.approx(0.2)
+    assert azimuth_sector(np.array([np.nan])) == pytest.approx(2 * np.pi)
