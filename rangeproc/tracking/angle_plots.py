@@ -66,6 +66,7 @@ from rangeproc.tracking.plot_association import (
     assign_per_scan,
     azimuth_sector,
     continuing_run,
+    finite_span,
     plot_llr,
 )
 from rangeproc.tracking.score import (
@@ -126,7 +127,7 @@ def angle_clutter_floor(batch: MeasurementBatch, rows: np.ndarray, frame: np.nda
     log_ext = np.log(EXTENT_SPHERICAL)
     flat = np.log(per_frame) - np.log(sector) + log_ext[AZIMUTH]
     elevated = np.isfinite(z[:, ELEVATION])
-    band = float(np.ptp(z[elevated, ELEVATION])) if elevated.sum() > 1 else 0.0
+    band = finite_span(z[:, ELEVATION])
     with_el = flat + (log_ext[ELEVATION] - np.log(band) if band > 0.0 else 0.0)
     return np.where(elevated & (band > 0.0), mixture_llr(with_el, OUTLIER_PROBABILITY),
                     mixture_llr(flat, OUTLIER_PROBABILITY))

@@ -61,6 +61,13 @@ EXTEND_SECONDS = 60.0
 EXTEND_GAP_SCANS = 2.5
 
 
+def finite_span(values: np.ndarray) -> float:
+    """The extent ``max - min`` of ``values`` (N,) over its finite entries (blanks, an
+    edited-out component, left out); 0 for none."""
+    values = values[np.isfinite(values)]
+    return float(np.ptp(values)) if values.size else 0.0
+
+
 def azimuth_sector(azimuth: np.ndarray) -> float:
     """The azimuth sector (rad) that angles ``azimuth`` (N,) rad span: the turn less its
     widest empty sector (2 pi for none); blanks (an edited-out component) left out."""
@@ -91,11 +98,10 @@ def clutter_floor(batch: MeasurementBatch, plots: np.ndarray, scan: np.ndarray,
     azimuth alone), lowered the boats' coverage (docs/methods/several-objects.md)."""
     z = batch.z[plots]
     n_scans = max(np.unique(scan).size, 1)
-    ranged = z[np.isfinite(z[:, 0]), 0]
-    spans = [float(np.ptp(ranged)) if ranged.size else 0.0, azimuth_sector(z[:, AZIMUTH])]
+    spans = [finite_span(z[:, 0]), azimuth_sector(z[:, AZIMUTH])]
     elevated = np.isfinite(z[:, 2])
     if elevated.any():
-        spans.append(float(np.ptp(z[elevated, 2])))
+        spans.append(finite_span(z[:, 2]))
     if min(spans) <= 0.0 or n_clutter == 0:
         return np.full(plots.size, -np.inf)
     log_ext = np.log(EXTENT_SPHERICAL)
