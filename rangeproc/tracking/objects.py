@@ -69,11 +69,25 @@ class Segment:
 
 def object_track(result: FusionResult) -> ObjectTrack:
     """Every epoch of a fused result (its rows' times and its output grid) as an
-    :class:`ObjectTrack`."""
+    :class:`ObjectTrack`, with the sigma it weighed each of its rows with (the final
+    pass's, inf for a component the gate left out)."""
     return ObjectTrack(np.ascontiguousarray(result.epoch_t),
                        np.ascontiguousarray(result.xs[:, :9]),
                        unpack_many(result.Ps, result.xs.shape[1], 9),
-                       np.ascontiguousarray(result.q))
+                       np.ascontiguousarray(result.q), weighed_rows(result))
+
+
+def weighed_rows(result: FusionResult) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Sensor index -> (its rows' ``source_row`` (K,) ascending, the sigma (K, 6) the
+    result's final pass weighed them with, inf where a component was not used)."""
+    batch = result.batch
+    sigma = np.where(result.used, batch.sigma, np.inf)
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for sensor in np.unique(batch.sensor):
+        sel = np.flatnonzero(batch.sensor == sensor)
+        order = sel[np.argsort(batch.source_row[sel], kind="stable")]
+        out[int(sensor)] = (batch.source_row[order], sigma[order])
+    return out
 
 
 def spread(sel: np.ndarray, most: int) -> np.ndarray:

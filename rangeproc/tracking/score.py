@@ -26,7 +26,7 @@ look like another object.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,12 +65,16 @@ BIAS_SIGMAS = 3.0
 @dataclass(frozen=True, slots=True)
 class ObjectTrack:
     """An object's smoothed trajectory for scoring: ``t`` (E,) s ascending, ``x`` (E, 9)
-    [p, v, a] range ENU, ``P`` (E, 9, 9) covariance, ``q`` (E,) white-jerk PSD (m^2/s^5)."""
+    [p, v, a] range ENU, ``P`` (E, 9, 9) covariance, ``q`` (E,) white-jerk PSD (m^2/s^5);
+    ``weighed``: sensor index -> (its rows' ``source_row`` (K,) ascending, the sigma (K, 6)
+    the trajectory weighed each row's components with, inf where a component was not used),
+    for the rows it was estimated from (:func:`weighed_sigma`); None: as stated."""
 
     t: np.ndarray
     x: np.ndarray
     P: np.ndarray
     q: np.ndarray
+    weighed: Mapping[int, tuple[np.ndarray, np.ndarray]] | None = None
 
 
 @njit(cache=True, nogil=True)
@@ -274,8 +278,11 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
 
         x_del = x - P Hᵀ D⁻¹ r,    P_del = P + P Hᵀ D⁻¹ H P.
 
-    ``ok`` is False (and the smoothed state is returned) where ``D`` is not positive
-    definite: the trajectory did not weigh the row as stated.
+    ``R`` must be the noise the trajectory weighed the row with (``sigma``: its sigma per
+    component, inf for a component it did not use, which is then not removed;
+    :func:`weighed_sigma`). ``ok`` is False (and the smoothed state is returned) where no
+    component was used or ``D`` is not positive definite: the trajectory did not weigh the
+    row as ``sigma`` says.
     """
     k_rows = sel.shape[0]
     xd = np.empty((k_rows, 9))
@@ -298,8 +305,8 @@ def deleted_states(sel: np.ndarray, t: np.ndarray, model: np.ndarray, z: np.ndar
         Pd[i] = P
         measure(model[r], x, s[r], sv[r], Qr[r], h, H)
         m = 0
-        for c in range(N_COMPONENTS):
-            if not math.isnan(z[r, c]):
+        for c in range(N_COMPONENTS):          # the components the trajectory weighed
+            if not math.isnan(z[r, c]) and math.isfinite(sigma[r, c]):
                 comp[m] = c
                 m += 1
         if m == 0:
@@ -377,29 +384,26 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
     100 m sigma scores its formation partner's plot at a NIS below 1). For the same
     reason a plot competing with the object's own plot of that scan is scored against the
     trajectory without that plot: within a scan every candidate plot of an object then
-    meets the same trajectory, one that none of them shaped. The deleted residual of a
-    linear smoother follows from the smoothed one, ``r``, its explained
-    covariance ``A = H P Hᵀ`` and the row's noise ``R``: the innovation had the row been
-    left out has covariance ``C = R (R - A)⁻¹ R``, so ``eᵀ C⁻¹ e = rᵀ (R - A)⁻¹ r`` and
-    ``log det C = 2 log det R - log det (R - A)``; another row is scored from the state
-    with the left-out row removed (:func:`deleted_states`). Where ``R - A`` is not
-    positive definite (the trajectory did not weigh the row as stated) the row keeps its
-    plain score.
+    meets the same trajectory, one that none of them shaped. The left-out row is removed
+    from the smoothed state at its time (:func:`deleted_states`, exact for a linear
+    smoother) with the noise the trajectory weighed it with (:func:`weighed_sigma`: a
+    trajectory whose fusion raised a sensor's sigma above the stated one, from the rows'
+    own scatter, weighed its rows less than stated, and removing them as stated would
+    remove more than they gave); every row is then scored against that state with its
+    stated noise, the same for every object it is scored against. Where the removal is not
+    possible (the row was not used, or ``R - H P Hᵀ`` is not positive definite) the row
+    keeps its plain score.
     """
     sel = np.asarray(rows, dtype=np.int64)
     left_out = np.asarray(left_out, dtype=np.int64)
-    geometry = _geometry(batch, sel, track)
     res, nis, llr = row_llr(sel, batch.model, batch.z, np.zeros((sel.size, N_COMPONENTS)),
-                            *geometry, OUTLIER_PROBABILITY)
-    _, L, m_rows, idx, ok, _, log_ext = geometry
-    _deleted_residual_scores(np.flatnonzero((left_out == sel) & ok), sel, batch.sigma, res,
-                             L, m_rows, idx, log_ext, nis, llr, OUTLIER_PROBABILITY)
-    other = np.flatnonzero((left_out >= 0) & (left_out != sel))
+                            *_geometry(batch, sel, track), OUTLIER_PROBABILITY)
+    other = np.flatnonzero(left_out >= 0)
     if other.size:
         gone, at = np.unique(left_out[other], return_inverse=True)
-        xd, Pd, fine = deleted_states(gone, batch.t, batch.model, batch.z, batch.sigma,
-                                      batch.s, batch.sv, batch.Qr, track.t, track.x, track.P,
-                                      track.q)
+        xd, Pd, fine = deleted_states(gone, batch.t, batch.model, batch.z,
+                                      weighed_sigma(batch, gone, track), batch.s, batch.sv,
+                                      batch.Qr, track.t, track.x, track.P, track.q)
         k = np.clip(np.searchsorted(track.t, batch.t[gone]), 0, track.t.size - 1)
         deleted = ObjectTrack(batch.t[gone], xd, Pd, track.q[k])
         use = fine[at]
@@ -410,46 +414,29 @@ def score_rows_left_out(batch: MeasurementBatch, rows: np.ndarray, track: Object
     return res, nis, llr
 
 
-@njit(cache=True, nogil=True)
-def _deleted_residual_scores(rows: np.ndarray, sel: np.ndarray, sigma: np.ndarray,
-                             res: np.ndarray, L: np.ndarray, m_rows: np.ndarray,
-                             idx: np.ndarray, log_ext: np.ndarray, nis: np.ndarray,
-                             llr: np.ndarray, eps: float) -> None:
-    """NIS and llr (in place) of the scored rows ``rows`` (indices into ``sel``) by their
-    deleted residual: ``rᵀ (R - A)⁻¹ r`` with ``R - A = 2R - S`` (S from its Cholesky factor
-    ``L``), ``log det C = 2 log det R - log det (R - A)``
-    (:func:`score_rows_left_out`); a row whose ``R - A`` is not positive definite keeps
-    its score."""
-    D = np.empty((N_COMPONENTS, N_COMPONENTS))
-    w = np.empty(N_COMPONENTS)
-    for i in rows:
-        m = m_rows[i]
-        log_r = 0.0
-        for a in range(m):
-            for b in range(a + 1):
-                acc = 0.0
-                for k in range(b + 1):
-                    acc += L[i, a, k] * L[i, b, k]
-                D[a, b] = -acc
-                D[b, a] = -acc
-            var = sigma[sel[i], idx[i, a]] ** 2
-            D[a, a] += 2.0 * var
-            log_r += math.log(var)
-        if not cholesky_inplace(D, m):
+def weighed_sigma(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack
+                  ) -> np.ndarray:
+    """The sigma (N, 6) of every row of ``batch`` (N rows) with rows ``rows`` given the
+    sigma ``track`` weighed them with (``ObjectTrack.weighed``, found by sensor and
+    ``source_row``; inf for a component it did not use, inf for every component of a row
+    it was not estimated from); ``batch.sigma`` itself where the track records none."""
+    if track.weighed is None or rows.size == 0:
+        return batch.sigma
+    sigma = batch.sigma.copy()
+    sensors = batch.sensor[rows]
+    for sensor in np.unique(sensors):
+        mine = rows[sensors == sensor]
+        got = track.weighed.get(int(sensor))
+        if got is None:
+            sigma[mine] = np.inf
             continue
-        d2 = 0.0
-        log_d = 0.0
-        for a in range(m):                              # forward substitution D w = r
-            v = res[i, idx[i, a]]
-            for k in range(a):
-                v -= D[a, k] * w[k]
-            w[a] = v / D[a, a]
-            d2 += w[a] * w[a]
-            log_d += 2.0 * math.log(D[a, a])
-        nis[i] = d2
-        logdet_c = 2.0 * log_r - log_d
-        llr[i] = mixture_llr(-0.5 * d2 - 0.5 * logdet_c - 0.5 * m * math.log(2.0 * math.pi)
-                             + log_ext[i], eps)
+        source, weighed = got
+        k = np.clip(np.searchsorted(source, batch.source_row[mine]), 0, max(source.size - 1, 0))
+        found = source.size > 0
+        hit = (source[k] == batch.source_row[mine]) if found else np.zeros(mine.size, bool)
+        sigma[mine[hit]] = weighed[k[hit]]
+        sigma[mine[~hit]] = np.inf
+    return sigma
 
 
 def scores_after_offset(batch: MeasurementBatch, rows: np.ndarray, track: ObjectTrack,

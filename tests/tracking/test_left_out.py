@@ -8,7 +8,7 @@ import pytest
 from rangeproc.fusion.centralised import fuse_target
 from rangeproc.fusion.estimator_types import EstimatorSettings
 from rangeproc.tracking.objects import object_track
-from rangeproc.tracking.score import score_rows, score_rows_left_out
+from rangeproc.tracking.score import ObjectTrack, score_rows, score_rows_left_out
 from rangeproc.settings import ProcessingSettings
 
 SETTINGS = EstimatorSettings(
@@ -116,3 +116,39 @@ def test_deleted_states_equal_the_information_form_in_a_linear_case() -> None:
     assert ok[0]
     np.testing.assert_allclose(Pd[0], P_del, rtol=1e-8)
     np.testing.assert_allclose(xd[0], x_del, rtol=1e-8, atol=1e-8)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_row_is_left_out_with_the_noise_its_trajectory_weighed_it_with(plot_batch,
+                                                                         seed) -> None:
+    """Plots three times noisier than stated: the fusion raises the sensor's sigma from the
+    plots' own scatter (``fusion.noise.difference_sigma``), so its trajectory weighs each
+    plot less than stated, and removing a plot as stated removes more than it gave
+    (``R - H P Hᵀ`` is not positive definite, and before, the plain, flattering score
+    stood). The removal uses the sigma the trajectory recorded (``ObjectTrack.weighed``):
+    it agrees with re-estimating, with those sigmas, without the plot; the same track
+    without the record keeps the plain score."""
+    adaptive = EstimatorSettings(processing=ProcessingSettings(
+        noise_passes=0, adapt_noise=True, process_noise=1.0))
+    clean = plots(plot_batch, seed)
+    rng = np.random.default_rng(seed + 50)
+    stated = np.array([43.0, 1.5e-3, 1.5e-3])
+    z = clean.z[:, :3] + 2.0 * rng.normal(size=(len(clean), 3)) * stated
+    batch = plot_batch(clean.t, z, stated)
+    with_all = object_track(fuse_target(batch, 4.0, adaptive))
+    assert with_all.weighed is not None
+    source, weighed = with_all.weighed[0]
+    assert (weighed[:, 0] > 1.5 * stated[0]).all()          # the sigma was raised
+    as_weighed = batch.with_sigma(weighed[np.argsort(np.argsort(batch.source_row))])
+    unrecorded = ObjectTrack(with_all.t, with_all.x, with_all.P, with_all.q)
+    for i in (1, 5, 14, 22, 28):
+        keep = np.delete(np.arange(len(batch)), i)
+        without = object_track(fuse_target(as_weighed.rows(keep), 4.0, SETTINGS))
+        _, nis_out, llr_out = score_rows(batch, np.array([i]), without)
+        _, nis_in, _ = score_rows(batch, np.array([i]), with_all)
+        _, nis_loo, llr_loo = score_rows_left_out(batch, np.array([i]), with_all,
+                                                  np.array([i]))
+        _, nis_old, _ = score_rows_left_out(batch, np.array([i]), unrecorded, np.array([i]))
+        assert nis_loo[0] == pytest.approx(nis_out[0], rel=0.1, abs=0.05)
+        assert llr_loo[0] == pytest.approx(llr_out[0], abs=0.3)
+        assert nis_old[0] == nis_in[0] < 0.8 * nis_out[0]    # as stated: not removable
