@@ -54,6 +54,7 @@ from rangeproc.parallel import thread_map
 from rangeproc.quantiles import chi2_ppf
 from rangeproc.tracking.objects import Objects, Segment, as_batch
 from rangeproc.tracking.plot_association import (
+    GATE_PROBABILITY,
     SPAN_MARGIN_SECONDS,
     assign_per_scan,
     clutter_floor,
@@ -322,16 +323,19 @@ def isolated_outliers(track: ObjectTrack, batch: MeasurementBatch, rows: np.ndar
     """(S,) bool for the plots ``rows[sel]`` (S,) of the object of ``track`` (``mine`` (P,):
     which of ``rows`` are its plots): outside the chi-square gate ``KEEP_PROBABILITY`` of the
     object's trajectory (scored as left out of it) while its plots before and after in time
-    are inside: a lone outlier, e.g. a clutter plot the plot tracker took in a scan that
-    missed the object. A run of such plots is the trajectory's failure, not the plots', and
-    is kept."""
+    fit it (inside the association gate ``GATE_PROBABILITY``): a lone outlier, e.g. a
+    clutter plot the plot tracker took in a scan that missed the object. A run of such plots,
+    or one between plots the trajectory fits only barely, is the trajectory's failure, not
+    the plots' (a sparse object whose motion model went astray where only a slow radar sees
+    it: its good plots lie at NIS 20-50), and is kept."""
     own = np.flatnonzero(mine)
     _, nis, _ = score_rows_left_out(batch, rows[own], track, rows[own])
-    dof = np.isfinite(batch.z[rows[own], :4]).sum(axis=1)
-    out = nis > chi2_ppf(KEEP_PROBABILITY, np.maximum(dof, 1))     # NaN: not outside
+    dof = np.maximum(np.isfinite(batch.z[rows[own], :4]).sum(axis=1), 1)
+    out = nis > chi2_ppf(KEEP_PROBABILITY, dof)                    # NaN: not outside
+    astray = nis > chi2_ppf(GATE_PROBABILITY, dof)                 # NaN: fits
     lone = out.copy()
-    lone[1:] &= ~out[:-1]
-    lone[:-1] &= ~out[1:]
+    lone[1:] &= ~astray[:-1]
+    lone[:-1] &= ~astray[1:]
     return lone[np.searchsorted(own, sel)]
 
 
