@@ -35,6 +35,16 @@ def test_an_object_missing_its_own_plots_where_it_is_uncertain_is_doubtful(plot_
     assert _doubtful(objects, keys, batch, rows, before, np.ones(t.size, bool)) == []
 
 
+def still_track(t: np.ndarray) -> ObjectTrack:
+    """A trajectory at rest 10 km out at azimuth 0.1 rad, elevation 0.05 rad, 10 m sigma per
+    axis, at times ``t`` (s)."""
+    x = np.zeros((t.size, 9))
+    x[:, 0] = 10_000.0 * np.sin(0.1) * np.cos(0.05)
+    x[:, 1] = 10_000.0 * np.cos(0.1) * np.cos(0.05)
+    x[:, 2] = 10_000.0 * np.sin(0.05)
+    return ObjectTrack(t, x, np.tile(np.eye(9) * 100.0, (t.size, 1, 1)), np.ones(t.size))
+
+
 def test_a_lone_outlier_is_one_a_run_is_not(plot_batch) -> None:
     """``_isolated_outliers``: of an object's plots, one far off between plots that fit is a
     lone outlier (clutter taken in a missed scan); two in a row are the trajectory's failure
@@ -47,11 +57,7 @@ def test_a_lone_outlier_is_one_a_run_is_not(plot_batch) -> None:
     r[[12, 13]] += 2_000.0                            # a run of two
     batch = plot_batch(t, np.column_stack([r, np.full(t.size, 0.1), np.full(t.size, 0.05)]),
                        [40.0, 1e-3, 1e-3])
-    x = np.zeros((t.size, 9))
-    x[:, 0] = 10_000.0 * np.sin(0.1) * np.cos(0.05)
-    x[:, 1] = 10_000.0 * np.cos(0.1) * np.cos(0.05)
-    x[:, 2] = 10_000.0 * np.sin(0.05)
-    track = ObjectTrack(t, x, np.tile(np.eye(9) * 100.0, (t.size, 1, 1)), np.ones(t.size))
+    track = still_track(t)
     rows = np.arange(t.size)
     lone = _isolated_outliers(track, batch, rows, np.ones(t.size, bool), rows)
     np.testing.assert_array_equal(np.flatnonzero(lone), [5])
@@ -76,11 +82,7 @@ def test_a_plot_between_plots_the_trajectory_barely_fits_is_no_lone_outlier(plot
     r[5] += 2_000.0                                   # a lone plot 2 km off
     batch = plot_batch(t, np.column_stack([r, np.full(t.size, 0.1), np.full(t.size, 0.05)]),
                        [40.0, 1e-3, 1e-3])
-    x = np.zeros((t.size, 9))
-    x[:, 0] = 10_000.0 * np.sin(0.1) * np.cos(0.05)
-    x[:, 1] = 10_000.0 * np.cos(0.1) * np.cos(0.05)
-    x[:, 2] = 10_000.0 * np.sin(0.05)
-    track = ObjectTrack(t, x, np.tile(np.eye(9) * 100.0, (t.size, 1, 1)), np.ones(t.size))
+    track = still_track(t)
     rows = np.arange(t.size)
     _, nis, _ = score_rows_left_out(batch, rows, track, rows)
     assert 21.1 < nis[10] < 30.6 and 21.1 < nis[12] < 30.6 and nis[11] > 30.7

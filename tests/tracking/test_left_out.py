@@ -27,21 +27,29 @@ def plots(plot_batch, seed: int):
     return plot_batch(t, rae + rng.normal(size=rae.shape) * sigma, sigma)
 
 
+def row_scores(batch, i: int, with_all, without):
+    """Row ``i``'s (NIS, llr) against the trajectory estimated without it, against the one
+    estimated with it, and left out of the latter (``score_rows_left_out``)."""
+    row = np.array([i])
+    _, nis_out, llr_out = score_rows(batch, row, without)
+    _, nis_in, llr_in = score_rows(batch, row, with_all)
+    _, nis_loo, llr_loo = score_rows_left_out(batch, row, with_all, row)
+    return (nis_out[0], llr_out[0]), (nis_in[0], llr_in[0]), (nis_loo[0], llr_loo[0])
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_left_out_score_is_the_score_against_the_track_without_the_row(plot_batch,
                                                                            seed) -> None:
     batch = plots(plot_batch, seed)
     with_all = object_track(fuse_target(batch, 4.0, SETTINGS))
     for i in (5, 14, 22):
-        keep = np.delete(np.arange(len(batch)), i)
-        without = object_track(fuse_target(batch.rows(keep), 4.0, SETTINGS))
-        _, nis_out, llr_out = score_rows(batch, np.array([i]), without)
-        _, nis_in, llr_in = score_rows(batch, np.array([i]), with_all)
-        _, nis_loo, llr_loo = score_rows_left_out(batch, np.array([i]), with_all,
-                                                  np.array([i]))
-        assert nis_loo[0] == pytest.approx(nis_out[0], rel=0.1, abs=0.05)
-        assert llr_loo[0] == pytest.approx(llr_out[0], abs=0.2)
-        assert nis_in[0] < nis_loo[0]           # its own track flatters the row
+        without = object_track(fuse_target(batch.rows(np.delete(np.arange(len(batch)), i)),
+                                           4.0, SETTINGS))
+        (nis_out, llr_out), (nis_in, _), (nis_loo, llr_loo) = row_scores(batch, i, with_all,
+                                                                         without)
+        assert nis_loo == pytest.approx(nis_out, rel=0.1, abs=0.05)
+        assert llr_loo == pytest.approx(llr_out, abs=0.2)
+        assert nis_in < nis_loo                 # its own track flatters the row
     _, nis, _ = score_rows(batch, np.arange(len(batch)), with_all)
     _, nis_plain, _ = score_rows_left_out(batch, np.arange(len(batch)), with_all,
                                           np.full(len(batch), -1))
@@ -142,13 +150,11 @@ def test_a_row_is_left_out_with_the_noise_its_trajectory_weighed_it_with(plot_ba
     as_weighed = batch.with_sigma(weighed[np.argsort(np.argsort(batch.source_row))])
     unrecorded = ObjectTrack(with_all.t, with_all.x, with_all.P, with_all.q)
     for i in (1, 5, 14, 22, 28):
-        keep = np.delete(np.arange(len(batch)), i)
-        without = object_track(fuse_target(as_weighed.rows(keep), 4.0, SETTINGS))
-        _, nis_out, llr_out = score_rows(batch, np.array([i]), without)
-        _, nis_in, _ = score_rows(batch, np.array([i]), with_all)
-        _, nis_loo, llr_loo = score_rows_left_out(batch, np.array([i]), with_all,
-                                                  np.array([i]))
+        without = object_track(fuse_target(as_weighed.rows(np.delete(np.arange(len(batch)), i)),
+                                           4.0, SETTINGS))
+        (nis_out, llr_out), (nis_in, _), (nis_loo, llr_loo) = row_scores(batch, i, with_all,
+                                                                         without)
         _, nis_old, _ = score_rows_left_out(batch, np.array([i]), unrecorded, np.array([i]))
-        assert nis_loo[0] == pytest.approx(nis_out[0], rel=0.1, abs=0.05)
-        assert llr_loo[0] == pytest.approx(llr_out[0], abs=0.3)
-        assert nis_old[0] == nis_in[0] < 0.8 * nis_out[0]    # as stated: not removable
+        assert nis_loo == pytest.approx(nis_out, rel=0.1, abs=0.05)
+        assert llr_loo == pytest.approx(llr_out, abs=0.3)
+        assert nis_old[0] == nis_in < 0.8 * nis_out           # as stated: not removable
