@@ -157,7 +157,9 @@ class PlotTiming:
     number itself for a scanning radar); revisit: the revisit period (s; 0 with one scan);
     order: "rotating", "framed" or "free"; silent: (N,) float, the clock with the scans a
     sensor's silences left out counted (``tracking.plots.silent_clock``; the clock for plots
-    in no scan order), which the stray-tail rule (``tracking.plot_tails``) reads.
+    in no scan order), which the stray-tail rule (``tracking.plot_tails``) reads; several:
+    whether the sensor gives several returns of one object a frame (a lidar's hull points:
+    :func:`several_returns`, set by the caller once measured; False: one).
     """
 
     frame: np.ndarray
@@ -166,6 +168,7 @@ class PlotTiming:
     revisit: float
     order: str
     silent: np.ndarray
+    several: bool = False
 
     @property
     def stamp_sigma(self) -> float:

@@ -26,7 +26,9 @@ later one from the previous round's):
   certain than the plot (:func:`uncertain_at`: a precise object does not keep a plot it
   cannot gate) and the plot is no lone outlier of it (:func:`isolated_outliers`: a clutter
   plot taken in a missed scan is not kept), and never beside another plot of the same scan
-  (:func:`one_plot_per_frame`).
+  (:func:`one_plot_per_frame`); on a sensor that gives several returns of one object a
+  frame (a lidar), a plot is no object's that another object holding a plot of the same
+  frame explains better: it is that object's further return (:func:`further_returns`).
 * An object whose trajectory gates none of some of its own plots while less certain than
   those plots there is re-estimated with a refinement pass (:func:`doubtful`,
   ``Objects.refined_track``; a first pass badly linearised where plots alone range the
@@ -89,24 +91,26 @@ MIN_AMBIGUOUS_PLOTS = 3
 class SensorPlots:
     """What one plot sensor's rounds share (computed once): its plot rows ``rows`` (P,),
     their frame numbers (P,), which belong to a plot track (``tracked`` (P,) bool), the
-    clutter floor of each (``plot_association.clutter_floor`` over their scans, (P,)) and the
-    sensor's revisit period (s)."""
+    clutter floor of each (``plot_association.clutter_floor`` over their scans, (P,)), the
+    sensor's revisit period (s) and whether it gives several returns of one object a frame
+    (``PlotTiming.several``)."""
 
     rows: np.ndarray
     frame: np.ndarray
     tracked: np.ndarray
     floor: np.ndarray
     revisit: float
+    several: bool = False
 
 
 def sensor_plots(objects: Objects, sensor: int, rows: np.ndarray, frame: np.ndarray,
                  scan: np.ndarray, tracked: np.ndarray, n_clutter: int,
-                 revisit: float) -> SensorPlots:
+                 revisit: float, several: bool = False) -> SensorPlots:
     """:class:`SensorPlots` of ``sensor``'s plot rows ``rows`` (P,) with their frame and scan
     numbers (P,); its clutter floor from its ``n_clutter`` clutter plots."""
     batch = as_batch(objects.rows[sensor], objects.sensor_ids, sensor)
     return SensorPlots(rows, frame, tracked, clutter_floor(batch, rows, scan, n_clutter),
-                       revisit)
+                       revisit, several)
 
 
 @dataclass(slots=True)
@@ -148,7 +152,8 @@ def reassociate_plots(objects: Objects, keys: list[str], segments: Sequence[Segm
         at = np.searchsorted(ranged, rows)
         plots[i] = sensor_plots(objects, i, rows, timing.frame[at], timing.scan[at],
                                 np.isin(rows, np.concatenate(parts[i])),
-                                clutter.get(i, np.zeros(0)).size, timing.revisit)
+                                clutter.get(i, np.zeros(0)).size, timing.revisit,
+                                timing.several)
     refined: set[str] = set()
     held = {i: _keys_of(held_by(objects, keys, i, plots[i].rows), keys) for i in sensors}
     last_llr: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -267,6 +272,8 @@ def associate_sensor(objects: Objects, keys: list[str], sensor: int, plots: Sens
     owner = extend_objects(batch, rows, [objects.tracks[k] for k in keys], frame, owner,
                            plots.tracked, floor, plots.revisit)
     owner = one_plot_per_frame(objects, keys, batch, rows, owner, gated, frame)
+    if plots.several:
+        owner = further_returns(owner, llr, frame)
     objects.members = reassign_members(objects.members, sensor, rows, owner, keys)
     return owner, llr, assigned & (owner >= 0)
 
@@ -347,6 +354,29 @@ def uncertain_at(track: ObjectTrack, batch: MeasurementBatch, sel: np.ndarray) -
     k = np.clip(np.searchsorted(track.t, t), 0, track.t.size - 1)
     spread_m = np.sqrt(np.trace(track.P[k, :3, :3], axis1=1, axis2=2))
     return (spread_m > batch.sigma[sel, 0]) | (t < track.t[0]) | (t > track.t[-1])
+
+
+def further_returns(owner: np.ndarray, llr: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """``owner`` (P,) (index into the objects, -1 none) with the further returns of other
+    objects unassigned, for a sensor that gives several returns of one object a frame (a
+    lidar's hull points). Each object still takes one plot a frame (the per-frame
+    assignment, :func:`one_plot_per_frame`), so an object's second return, within the wide
+    gate of a ship beside it, went to the ship. A plot given to an object is left to no
+    object where another object holding a plot of the same frame explains it better
+    (``llr`` (P, K), -inf outside a gate): it is that object's further return, not the
+    other's plot. ``frame`` (P,)."""
+    out = owner.copy()
+    held = np.flatnonzero(owner >= 0)
+    if held.size == 0:
+        return out
+    frames, at = np.unique(frame[held], return_inverse=True)
+    holds = np.zeros((frames.size, llr.shape[1]), dtype=bool)      # frame x object
+    holds[at, owner[held]] = True
+    rival = np.where(holds[at], llr[held], -np.inf)                  # objects of the frame
+    rival[np.arange(held.size), owner[held]] = -np.inf
+    mine = llr[held, owner[held]]
+    out[held[rival.max(axis=1) > mine]] = -1          # -inf against a gated rival: theirs
+    return out
 
 
 def one_plot_per_frame(objects: Objects, keys: list[str], batch: MeasurementBatch,

@@ -199,6 +199,7 @@ def sensor_segments(sensor: int, rows: SensorRows
             planar = bool(np.median(rows.sigma[ranged, 2]) >= PLANE_ELEVATION_SIGMA)
             timing = plot_timing(rows.t[ranged], z[:, 1], p, R, planar)
             several = several_returns(p, R, timing.frame, planar)
+            timing = replace(timing, several=several)
             label = repair_heads(rows.t[ranged], p, R, timing.scan,
                                  track_plots(rows.t[ranged], p, R, timing.frame, timing.clock,
                                              planar, timing.stamp_sigma, several=several,

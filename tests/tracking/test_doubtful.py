@@ -88,3 +88,24 @@ def test_a_plot_between_plots_the_trajectory_barely_fits_is_no_lone_outlier(plot
     assert 21.1 < nis[10] < 30.6 and 21.1 < nis[12] < 30.6 and nis[11] > 30.7
     lone = _isolated_outliers(track, batch, rows, np.ones(t.size, bool), rows)
     np.testing.assert_array_equal(np.flatnonzero(lone), [5])
+
+
+def test_a_further_return_of_one_object_is_no_plot_of_another() -> None:
+    """``further_returns``: a lidar gives several returns of a hull a frame, and each object
+    takes one plot a frame, so the boat's second return, inside the ship's wide gate, went
+    to the ship. A plot is left to no object where another object holding a plot of that
+    frame explains it better; where none does, or the other object holds no plot of the
+    frame, it stays."""
+    from rangeproc.tracking.reassociation import further_returns
+
+    inf = np.inf
+    # frame 0: boat (0) holds plot 0, ship (1) holds plot 1, the boat's second return
+    # frame 1: ship holds plot 2, which the boat explains better but holds nothing there
+    # frame 2: ship holds plot 3 (its own), boat holds plot 4
+    # frame 3: ship keeps plot 5, ungated by itself, which the boat gates
+    llr = np.array([[12.0, 3.0], [9.0, 4.0], [8.0, 5.0], [-inf, 7.0], [11.0, -inf],
+                    [6.0, -inf], [2.0, 1.0]])
+    owner = np.array([0, 1, 1, 1, 0, 1, 0])
+    frame = np.array([0, 0, 1, 2, 2, 3, 3])
+    np.testing.assert_array_equal(further_returns(owner, llr, frame),
+                                  [0, -1, 1, 1, 0, -1, 0])

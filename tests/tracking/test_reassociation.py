@@ -79,10 +79,11 @@ def _run_script(monkeypatch, script: list[str]):
 
     monkeypatch.setattr(ra, "associate_sensor", scripted)
     monkeypatch.setattr(ra, "sensor_plots", lambda objects, sensor, rows, frame, scan, tracked,
-                        n, revisit: ra.SensorPlots(rows, frame, tracked, np.zeros(rows.size),
-                                                   revisit))
+                        n, revisit, several: ra.SensorPlots(rows, frame, tracked,
+                                                            np.zeros(rows.size), revisit,
+                                                            several))
     seg = Segment(0, 0, np.arange(4), -1, 0.0, 3.0, True, plot=True)
-    timing = SimpleNamespace(frame=np.arange(4), scan=np.arange(4), revisit=1.0)
+    timing = SimpleNamespace(frame=np.arange(4), scan=np.arange(4), revisit=1.0, several=False)
     out = ra.reassociate_plots(objects, ["A", "B"], [seg], {}, {0: (np.arange(4), timing, [])})
     return out, objects
 
